@@ -1,0 +1,152 @@
+"""TD3 networks (flax.linen): a deterministic actor and twin critics, activation injected by name.
+
+Actor:   a = tanh(W₃ σ(W₂ σ(W₁ s + b₁) + b₂) + b₃) · scale + offset,
+         scale = (high − low)/2, offset = (high + low)/2, so a ∈ [low, high].
+Critics: Q_j(s, a) = W₃ʲ σ(W₂ʲ σ(W₁ʲ [s; a] + b₁ʲ) + b₂ʲ) + b₃ʲ for j = 1, 2, computed by ONE module
+         vmapped over a leading critic axis of its parameters; output shape (2, batch).
+
+σ is ``swim_jax.activations.Activation(kind, params, learnable)`` in every hidden layer (a fresh
+layer each time, so a learnable k/beta is per layer). Dense layers use PyTorch's ``nn.Linear``
+default initialisation (weights and biases U(±1/√fan_in)), as in the original TD3 code.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Mapping, Sequence
+
+import flax.linen as nn
+import jax
+import jax.numpy as jnp
+
+from swim_jax.activations import Activation
+
+Array = jax.Array
+
+
+def torch_linear_kernel_init():
+    """U(±1/√fan_in) for a (fan_in, fan_out) kernel: variance scaling 1/3, fan_in, uniform."""
+    return nn.initializers.variance_scaling(1.0 / 3.0, "fan_in", "uniform")
+
+
+def torch_linear_bias_init(fan_in: int):
+    """U(±1/√fan_in) for a bias vector (PyTorch ``nn.Linear`` default)."""
+    bound = 1.0 / float(fan_in) ** 0.5
+
+    def init(key, shape, dtype=jnp.float32):
+        return jax.random.uniform(key, shape, dtype, -bound, bound)
+
+    return init
+
+
+class _Body(nn.Module):
+    """Hidden stack + linear head; the activation module is created fresh in every hidden layer."""
+
+    hidden: Sequence[int]
+    out_dim: int
+    activation: str
+    activation_params: Mapping[str, float] | None
+    learnable: bool
+    dtype: Any
+
+    @nn.compact
+    def __call__(self, x: Array) -> Array:
+        x = x.astype(self.dtype)
+        for i, width in enumerate(self.hidden):
+            x = nn.Dense(
+                width,
+                dtype=self.dtype,
+                param_dtype=self.dtype,
+                kernel_init=torch_linear_kernel_init(),
+                bias_init=torch_linear_bias_init(x.shape[-1]),
+                name=f"dense_{i}",
+            )(x)
+            x = Activation(
+                kind=self.activation,
+                params=dict(self.activation_params or {}),
+                learnable=self.learnable,
+                name=f"act_{i}",
+            )(x)
+        return nn.Dense(
+            self.out_dim,
+            dtype=self.dtype,
+            param_dtype=self.dtype,
+            kernel_init=torch_linear_kernel_init(),
+            bias_init=torch_linear_bias_init(x.shape[-1]),
+            name="head",
+        )(x)
+
+
+class Actor(nn.Module):
+    """Deterministic policy μ(s) ∈ [low, high]: tanh head scaled to the action range.
+
+    ``action_low``/``action_high`` are tuples (static); ``__call__(obs[..., obs_dim]) -> [..., act_dim]``.
+    """
+
+    action_low: Sequence[float]
+    action_high: Sequence[float]
+    hidden: Sequence[int] = (256, 256)
+    activation: str = "relu"
+    activation_params: Mapping[str, float] | None = None
+    learnable: bool = False
+    dtype: Any = jnp.float32
+
+    @nn.compact
+    def __call__(self, obs: Array) -> Array:
+        low = jnp.asarray(self.action_low, self.dtype)
+        high = jnp.asarray(self.action_high, self.dtype)
+        out = _Body(
+            self.hidden,
+            len(self.action_low),
+            self.activation,
+            self.activation_params,
+            self.learnable,
+            self.dtype,
+            name="body",
+        )(obs)
+        return jnp.tanh(out) * (high - low) / 2 + (high + low) / 2
+
+
+class _Critic(nn.Module):
+    """One Q network: Q(s, a) = MLP([s; a]) → scalar per row."""
+
+    hidden: Sequence[int]
+    activation: str
+    activation_params: Mapping[str, float] | None
+    learnable: bool
+    dtype: Any
+
+    @nn.compact
+    def __call__(self, obs: Array, action: Array) -> Array:
+        x = jnp.concatenate([obs.astype(self.dtype), action.astype(self.dtype)], axis=-1)
+        q = _Body(
+            self.hidden, 1, self.activation, self.activation_params, self.learnable, self.dtype,
+            name="body",
+        )(x)
+        return q[..., 0]
+
+
+class TwinCritic(nn.Module):
+    """Twin critics (Q₁, Q₂) as one module: parameters stacked on a leading axis of size
+    ``num_critics`` (default 2), independently initialised; ``__call__(obs, action) -> (2, ...)``."""
+
+    hidden: Sequence[int] = (256, 256)
+    activation: str = "relu"
+    activation_params: Mapping[str, float] | None = None
+    learnable: bool = False
+    dtype: Any = jnp.float32
+    num_critics: int = 2
+
+    @nn.compact
+    def __call__(self, obs: Array, action: Array) -> Array:
+        vmapped = nn.vmap(
+            _Critic,
+            variable_axes={"params": 0},
+            split_rngs={"params": True},
+            in_axes=None,
+            out_axes=0,
+            axis_size=self.num_critics,
+        )
+        return vmapped(
+            self.hidden, self.activation, self.activation_params, self.learnable, self.dtype,
+            name="critics",
+        )(obs, action)

@@ -1,0 +1,246 @@
+"""agents/: networks, replay buffer and one TD3 update against independent float64 references.
+
+The reference re-implements the networks, TD target, losses, Adam and Polyak by hand in float64
+(numpy for the forward math and Adam; jax.grad only differentiates the hand-written jnp forward).
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from agents import replay
+from agents.networks import Actor, TwinCritic
+from agents.td3 import TD3, ActivationConfig, TD3Config
+
+OBS, ACT, B = 5, 3, 16
+LOW, HIGH = (-2.0, -1.0, -0.5), (2.0, 1.0, 0.5)  # deliberately non-symmetric per-dimension ranges
+
+
+# ------------------------------------------------------------------------------------------------
+# independent reference (float64)
+# ------------------------------------------------------------------------------------------------
+
+def ref_act(name, x, k=0.5, beta=1.0):
+    if name == "relu":
+        return jnp.maximum(x, 0.0)
+    if name == "swim":
+        return x / 2 * (k * x / jnp.sqrt(1 + k * k * x * x) + 1)
+    if name == "swish":
+        return x / (1 + jnp.exp(-beta * x))
+    raise AssertionError(name)
+
+
+def ref_body(p, x, name, n_hidden, k):
+    """p: dict with dense_i/head kernels, x @ W + b, activation after every hidden layer."""
+    for i in range(n_hidden):
+        x = ref_act(name, x @ p[f"dense_{i}"]["kernel"] + p[f"dense_{i}"]["bias"], k=k)
+    return x @ p["head"]["kernel"] + p["head"]["bias"]
+
+
+def ref_actor(p, s, name, n_hidden, k):
+    low, high = jnp.asarray(LOW), jnp.asarray(HIGH)
+    return jnp.tanh(ref_body(p["params"]["body"], s, name, n_hidden, k)) * (high - low) / 2 + (high + low) / 2
+
+
+def ref_q(p, s, a, j, name, n_hidden, k):
+    body = jax.tree.map(lambda x: x[j], p["params"]["critics"]["body"])
+    return ref_body(body, jnp.concatenate([s, a], -1), name, n_hidden, k)[:, 0]
+
+
+def ref_adam(params, grads, m, v, t, lr, b1=0.9, b2=0.999, eps=1e-8):
+    """Adam (Kingma & Ba), bias-corrected, eps outside the sqrt (PyTorch/optax convention)."""
+    m = jax.tree.map(lambda m_, g: b1 * m_ + (1 - b1) * g, m, grads)
+    v = jax.tree.map(lambda v_, g: b2 * v_ + (1 - b2) * g * g, v, grads)
+    new = jax.tree.map(
+        lambda p, m_, v_: p - lr * (m_ / (1 - b1**t)) / (np.sqrt(v_ / (1 - b2**t)) + eps), params, m, v
+    )
+    return new, m, v
+
+
+def np64(tree):
+    return jax.tree.map(lambda x: np.asarray(x, np.float64), tree)
+
+
+@pytest.mark.parametrize("act_name", ["relu", "swim"])
+def test_td3_two_updates_match_float64_reference(act_name):
+    """Update 1 (critic only) then update 2 (critic + delayed actor + Polyak) vs the reference."""
+    with jax.enable_x64(True):
+        cfg = TD3Config(hidden=(8, 8), activation=ActivationConfig(name=act_name, k=0.75),
+                        actor_lr=1e-2, critic_lr=2e-2, batch_size=B, tau=0.05, discount=0.9)
+        agent = TD3(cfg, OBS, LOW, HIGH, dtype=jnp.float64)
+        state = agent.init(jax.random.PRNGKey(3))
+        # perturb the targets so target != online (tests that the target nets are what is used)
+        kp = jax.random.PRNGKey(11)
+        state = state._replace(
+            actor_target=jax.tree.map(lambda x: x + 0.1 * jax.random.normal(kp, x.shape, x.dtype), state.actor_target),
+            critic_target=jax.tree.map(lambda x: x - 0.1 * jax.random.normal(kp, x.shape, x.dtype), state.critic_target),
+        )
+        rng = np.random.default_rng(0)
+        batch = replay.Transition(
+            obs=jnp.asarray(rng.normal(size=(B, OBS))),
+            action=jnp.asarray(rng.uniform(LOW, HIGH, size=(B, ACT))),
+            reward=jnp.asarray(rng.normal(size=B)),
+            next_obs=jnp.asarray(rng.normal(size=(B, OBS))),
+            terminated=jnp.asarray((rng.uniform(size=B) < 0.3).astype(np.float64)),
+        )
+        keys = [jax.random.PRNGKey(100), jax.random.PRNGKey(101)]
+        s1, m1 = jax.jit(agent.update)(state, batch, keys[0], jnp.asarray(False))
+        s2, m2 = jax.jit(agent.update)(s1, batch, keys[1], jnp.asarray(True))
+
+        # ---------------- reference ----------------
+        name, nh, k = act_name, 2, 0.75
+        refq = lambda p, s, a, j: ref_q(p, s, a, j, name, nh, k)
+        refmu = lambda p, s: ref_actor(p, s, name, nh, k)
+        m_act = (np.asarray(HIGH) - np.asarray(LOW)) / 2
+        b = np64(batch)
+        actor, critic = np64(state.actor), np64(state.critic)
+        actor_t, critic_t = np64(state.actor_target), np64(state.critic_target)
+        zeros = lambda t: jax.tree.map(np.zeros_like, t)
+        mc, vc, ma, va = zeros(critic), zeros(critic), zeros(actor), zeros(actor)
+
+        def target(key, actor_t, critic_t):
+            eps = np.asarray(jax.random.normal(key, (B, ACT), jnp.float64)) * (0.2 * m_act)
+            eps = np.clip(eps, -0.5 * m_act, 0.5 * m_act)
+            a2 = np.clip(np.asarray(refmu(actor_t, b.next_obs)) + eps, LOW, HIGH)
+            q1 = np.asarray(refq(critic_t, b.next_obs, a2, 0))
+            q2 = np.asarray(refq(critic_t, b.next_obs, a2, 1))
+            return b.reward + 0.9 * (1 - b.terminated) * np.minimum(q1, q2)
+
+        def lq(c, y):
+            return sum(jnp.mean((refq(c, b.obs, b.action, j) - y) ** 2) for j in range(2))
+
+        # update 1: critic only
+        y1 = target(keys[0], actor_t, critic_t)
+        l1, g1 = jax.value_and_grad(lq)(critic, y1)
+        critic1, mc, vc = ref_adam(critic, np64(g1), mc, vc, 1, 2e-2)
+        np.testing.assert_allclose(m1.critic_loss, l1, rtol=1e-10)
+        assert float(m1.actor_loss) == 0.0 and not bool(m1.actor_updated)
+        jax.tree.map(lambda a, r: np.testing.assert_allclose(a, r, rtol=1e-9, atol=1e-12), np64(s1.critic), critic1)
+        for got, want in [(s1.actor, actor), (s1.actor_target, actor_t), (s1.critic_target, critic_t)]:
+            jax.tree.map(lambda a, r: np.testing.assert_array_equal(a, r), np64(got), want)
+
+        # update 2: critic (Adam step 2), then actor on the NEW critic, then Polyak
+        y2 = target(keys[1], actor_t, critic_t)
+        l2, g2 = jax.value_and_grad(lq)(critic1, y2)
+        critic2, mc, vc = ref_adam(critic1, np64(g2), mc, vc, 2, 2e-2)
+        lmu_fn = lambda a: -jnp.mean(refq(critic2, b.obs, refmu(a, b.obs), 0))
+        lmu, gmu = jax.value_and_grad(lmu_fn)(actor)
+        actor2, ma, va = ref_adam(actor, np64(gmu), ma, va, 1, 1e-2)
+        polyak = lambda t, p: 0.05 * p + 0.95 * t
+        np.testing.assert_allclose(m2.critic_loss, l2, rtol=1e-10)
+        np.testing.assert_allclose(m2.actor_loss, lmu, rtol=1e-10)
+        assert bool(m2.actor_updated)
+        close = lambda a, r: np.testing.assert_allclose(a, r, rtol=1e-9, atol=1e-12)
+        jax.tree.map(close, np64(s2.critic), critic2)
+        jax.tree.map(close, np64(s2.actor), actor2)
+        jax.tree.map(close, np64(s2.actor_target), jax.tree.map(polyak, actor_t, actor2))
+        jax.tree.map(close, np64(s2.critic_target), jax.tree.map(polyak, critic_t, critic2))
+        assert s2.actor["params"]["body"]["dense_0"]["kernel"].dtype == jnp.float64
+
+
+def test_td_target_truncation_bootstraps_termination_does_not():
+    """y = r + γ·minQ' when terminated = 0 (incl. truncated steps, stored as 0), y = r when 1."""
+    cfg = TD3Config(hidden=(8, 8), discount=0.99)
+    agent = TD3(cfg, OBS, (-1.0,) * ACT, (1.0,) * ACT)
+    st = agent.init(jax.random.PRNGKey(0))
+    s = jnp.ones((2, OBS))
+    batch = replay.Transition(s, jnp.zeros((2, ACT)), jnp.asarray([1.0, 1.0]), s, jnp.asarray([0.0, 1.0]))
+    key = jax.random.PRNGKey(5)
+    y = agent.td_target(st, batch, key)
+    assert float(y[1]) == 1.0
+    # the bootstrapped row: recompute min Q' of the same smoothed next action
+    mu = agent.act(st.actor_target, s)
+    eps = jnp.clip(jax.random.normal(key, mu.shape) * 0.2, -0.5, 0.5)
+    q = agent.critic_net.apply(st.critic_target, s, jnp.clip(mu + eps, -1, 1))
+    np.testing.assert_allclose(float(y[0]), 1.0 + 0.99 * float(jnp.min(q[:, 0])), rtol=1e-6)
+    assert abs(float(jnp.min(q[:, 0]))) > 1e-4
+
+
+def test_networks_shapes_ranges_and_twin_independence():
+    actor = Actor(LOW, HIGH, hidden=(16, 16), activation="swim", activation_params={"k": 0.5})
+    pa = actor.init(jax.random.PRNGKey(0), jnp.zeros((1, OBS)))
+    big = 100.0 * jax.random.normal(jax.random.PRNGKey(1), (64, OBS))
+    a = actor.apply(pa, big)
+    assert a.shape == (64, ACT)
+    assert np.all(np.asarray(a) >= np.asarray(LOW)) and np.all(np.asarray(a) <= np.asarray(HIGH))
+    critic = TwinCritic(hidden=(16, 16), activation="relu")
+    pc = critic.init(jax.random.PRNGKey(0), jnp.zeros((1, OBS)), jnp.zeros((1, ACT)))
+    q = critic.apply(pc, big, a)
+    assert q.shape == (2, 64)
+    k0 = pc["params"]["critics"]["body"]["dense_0"]["kernel"]
+    assert k0.shape == (2, OBS + ACT, 16) and not np.allclose(k0[0], k0[1])
+    # PyTorch nn.Linear init: |w|, |b| <= 1/sqrt(fan_in)
+    assert float(jnp.max(jnp.abs(k0))) <= 1 / np.sqrt(OBS + ACT) + 1e-7
+    hk = pc["params"]["critics"]["body"]["head"]["kernel"]
+    assert float(jnp.max(jnp.abs(hk))) <= 1 / 4 + 1e-7
+
+
+def test_learnable_activation_is_a_per_layer_param_that_trains():
+    cfg = TD3Config(hidden=(8, 8), activation=ActivationConfig(name="swim", k=0.5, learnable=True), batch_size=4)
+    agent = TD3(cfg, OBS, (-1.0,) * ACT, (1.0,) * ACT)
+    st = agent.init(jax.random.PRNGKey(0))
+    ks = st.actor["params"]["body"]
+    assert float(ks["act_0"]["k"]) == 0.5 and float(ks["act_1"]["k"]) == 0.5
+    assert st.critic["params"]["critics"]["body"]["act_0"]["k"].shape == (2,)
+    rng = np.random.default_rng(0)
+    batch = replay.Transition(*(jnp.asarray(rng.normal(size=sh), jnp.float32) for sh in
+                                [(4, OBS), (4, ACT), (4,), (4, OBS), (4,)]))
+    st2, _ = agent.update(st, batch, jax.random.PRNGKey(1), jnp.asarray(True))
+    assert float(st2.actor["params"]["body"]["act_0"]["k"]) != 0.5
+    assert np.all(np.asarray(st2.critic["params"]["critics"]["body"]["act_1"]["k"]) != 0.5)
+
+
+def test_unknown_activation_raises():
+    agent = TD3(TD3Config(hidden=(4,), activation=ActivationConfig(name="nope")), OBS, (-1.0,), (1.0,))
+    with pytest.raises(ValueError, match="valid"):
+        agent.init(jax.random.PRNGKey(0))
+
+
+def test_explore_and_random_action_stay_in_range():
+    agent = TD3(TD3Config(hidden=(8,), expl_noise=5.0), OBS, LOW, HIGH)
+    st = agent.init(jax.random.PRNGKey(0))
+    a = agent.explore(st.actor, jnp.zeros((500, OBS)), jax.random.PRNGKey(1))
+    r = agent.random_action(jax.random.PRNGKey(2), (500,))
+    for x in (a, r):
+        x = np.asarray(x)
+        assert np.all(x >= np.asarray(LOW)) and np.all(x <= np.asarray(HIGH))
+    r = np.asarray(r)
+    np.testing.assert_allclose(r.min(0), LOW, atol=0.05)
+    np.testing.assert_allclose(r.max(0), HIGH, atol=0.05)
+
+
+# ------------------------------------------------------------------------------------------------
+# replay
+# ------------------------------------------------------------------------------------------------
+
+def _tr(i):
+    f = float(i)
+    return replay.Transition(jnp.full((2,), f), jnp.full((1,), -f), jnp.asarray(f), jnp.full((2,), f + 0.5),
+                             jnp.asarray(float(i % 2)))
+
+
+def test_replay_wraparound_and_sampling_range():
+    buf = replay.init(5, 2, 1)
+    add = jax.jit(replay.add)
+    for i in range(3):
+        buf = add(buf, _tr(i))
+    assert int(buf.size) == 3 and int(buf.ptr) == 3
+    idx = np.asarray(replay.sample_indices(buf, jax.random.PRNGKey(0), 10_000))
+    assert idx.min() == 0 and idx.max() == 2
+    counts = np.bincount(idx, minlength=3)
+    assert np.all(np.abs(counts / 10_000 - 1 / 3) < 0.03)
+    for i in range(3, 7):  # 7 inserted into 5 slots: slots hold 5, 6, 2, 3, 4
+        buf = add(buf, _tr(i))
+    assert int(buf.size) == 5 and int(buf.ptr) == 2
+    np.testing.assert_array_equal(np.asarray(buf.data.reward), [5, 6, 2, 3, 4])
+    np.testing.assert_array_equal(np.asarray(buf.data.next_obs[:, 0]), [5.5, 6.5, 2.5, 3.5, 4.5])
+    np.testing.assert_array_equal(np.asarray(buf.data.terminated), [1, 0, 0, 1, 0])
+    batch = replay.sample(buf, jax.random.PRNGKey(1), 4000)
+    assert set(np.asarray(batch.reward).astype(int)) == {2, 3, 4, 5, 6}
+    # rows stay aligned: obs, action, next_obs of a sampled row all belong to the same transition
+    np.testing.assert_array_equal(np.asarray(batch.obs[:, 0]), np.asarray(batch.reward))
+    np.testing.assert_array_equal(np.asarray(batch.action[:, 0]), -np.asarray(batch.reward))
+    assert buf.ptr.dtype == jnp.int32 and not buf.ptr.weak_type
