@@ -1,0 +1,46 @@
+"""Benchmarks: ``python -m swim_jax.bench {activations,rsqrt,envs} [options]``.
+
+Every benchmark compiles first, interleaves its candidates in one process, prints a table of
+medians (and min–max), and writes a JSON file under runs/bench/. See docs/BENCHMARKS.md for the
+figures measured on this project's machines and the commands that produced them.
+"""
+
+from __future__ import annotations
+
+import sys
+
+USAGE = """usage: python -m swim_jax.bench {activations,rsqrt,envs} [options]
+  activations  elementwise fwd / fwd+bwd, TD3 actor inference (Table III), full TD3 update
+  rsqrt        accuracy (every float32 mantissa) and speed of the inverse-square-root variants
+  envs         MJX env steps/s vs native MuJoCo
+run a subcommand with --help for its options"""
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Dispatch to a benchmark; unknown subcommands exit with status 2 and the valid ones."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if not argv or argv[0] in ("-h", "--help"):
+        print(USAGE)
+        return 0 if argv else 2
+    command, rest = argv[0], argv[1:]
+    if command == "activations":
+        from swim_jax.bench_activations import main as run
+    elif command == "rsqrt":
+        from swim_jax.bench_activations import main_rsqrt as run
+    elif command == "envs":
+        try:
+            from envs.bench import main as run
+        except ImportError as exc:  # pragma: no cover - depends on the envs package state
+            print(f"swim_jax.bench: the envs benchmark is unavailable: {exc}", file=sys.stderr)
+            return 2
+    else:
+        print(
+            f"swim_jax.bench: unknown benchmark {command!r}; valid: activations, rsqrt, envs",
+            file=sys.stderr,
+        )
+        return 2
+    return run(rest) or 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,393 @@
+"""``python -m swim_jax.bench activations`` and ``... rsqrt``: Swim's efficiency, measured honestly.
+
+activations:
+  (a) elementwise forward and forward+backward (value and input-gradient in one jitted call) on
+      (256, 256) and (4096, 4096) arrays, float32 and float64, every Swim kernel variant and every
+      rival, interleaved; medians with min–max.
+  (b) the paper's Table III protocol: the TD3 actor (obs → 256 → 256 → act, tanh head, from
+      agents.td3) forward on 256 states, each of the first 100 calls after compilation timed alone,
+      mean ± std in ms, per env's sizes, float32 and float64; Swim vs Swish improvement
+      = (t_swish − t_swim)/t_swim, the paper's definition (0.810 vs 0.687 ms → 17.9 %).
+  (c) the full TD3 update (agents.td3.TD3.update: twin critics every step, delayed actor and Polyak
+      every 2nd) at 256-256, batch 256, run as it is in training: a lax.scan of updates in one jit.
+rsqrt:
+  max relative error of every inverse-square-root variant over a sweep of float32 mantissas
+  (both exponent parities), and its elementwise speed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import ctypes
+import datetime as _dt
+import json
+import os
+import platform
+import sys
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from swim_jax import activations as A
+from swim_jax.timing import calls_for, time_interleaved
+
+# Table III environments: (observation size, action size) of the Gymnasium v5 tasks.
+ENV_SIZES = {"Walker2d": (17, 6), "Hopper": (11, 3), "HalfCheetah": (17, 6), "Swimmer": (8, 2)}
+DTYPES = {"float32": jnp.float32, "float64": jnp.float64}
+
+
+def elementwise_candidates() -> dict:
+    """name -> f(x): every Swim kernel (k = 0.5) and every rival, same calling convention."""
+    cands = {}
+    for variant, kernel in A.SWIM_VARIANTS.items():
+        label = "swim" if variant == "default" else f"swim[{variant}]"
+        cands[label] = lambda x, kernel=kernel: kernel(x, jnp.asarray(0.5, x.dtype))
+    cands["swim[plain autodiff]"] = lambda x: A.swim_reference(x, 0.5)
+    cands["jax.nn.swish"] = jax.nn.swish
+    cands["swish"] = lambda x: A.swish(x, 1.0)
+    cands["relu"] = A.relu
+    cands["hard_swish"] = A.hard_swish
+    cands["mish"] = A.mish
+    return cands
+
+
+def _fwd_bwd(f):
+    """x, g -> (f(x), g·f'(x)): the forward value and the input gradient in one program."""
+
+    def run(x, g):
+        y, vjp = jax.vjp(f, x)
+        return y, vjp(g)[0]
+
+    return run
+
+
+def bench_elementwise(shapes, dtypes, repeats: int) -> list[dict]:
+    """Section (a): median µs per call of jit(f)(x) and jit(fwd+bwd)(x, g), interleaved."""
+    rows = []
+    for dtype_name in dtypes:
+        dtype = DTYPES[dtype_name]
+        for shape in shapes:
+            x = (3 * jax.random.normal(jax.random.key(0), shape, dtype)).block_until_ready()
+            g = jnp.ones_like(x)
+            cands = {}
+            for name, f in elementwise_candidates().items():
+                fwd, fb = jax.jit(f), jax.jit(_fwd_bwd(f))
+                cands[(name, "fwd")] = lambda fwd=fwd: fwd(x)
+                cands[(name, "fwd+bwd")] = lambda fb=fb: fb(x, g)
+            calls = calls_for(cands[("jax.nn.swish", "fwd")], target_seconds=0.02)
+            timings = time_interleaved(cands, repeats=repeats, calls_per_sample=calls)
+            for (name, pass_), t in timings.items():
+                ref = timings[("jax.nn.swish", pass_)].median
+                rows.append(
+                    {
+                        "dtype": dtype_name,
+                        "shape": list(shape),
+                        "activation": name,
+                        "pass": pass_,
+                        **{f"{k}_us": v for k, v in t.as_dict(1e6).items()},
+                        "speedup_vs_jax_nn_swish": ref / t.median,
+                    }
+                )
+    return rows
+
+
+def _actor_forward(activation: str, obs_dim: int, act_dim: int, dtype):
+    """A jitted TD3 actor forward (agents.td3's network) and its parameters."""
+    from agents.td3 import TD3, ActivationConfig, TD3Config
+
+    agent = TD3(
+        TD3Config(activation=ActivationConfig(name=activation)),
+        obs_dim=obs_dim,
+        action_low=(-1.0,) * act_dim,
+        action_high=(1.0,) * act_dim,
+        dtype=dtype,
+    )
+    params = agent.init(jax.random.key(0)).actor_target
+    return jax.jit(agent.act), params
+
+
+def bench_actor_inference(envs, dtypes, calls: int, activations=("swish", "swim", "relu")) -> list[dict]:
+    """Section (b), Table III: each of the first ``calls`` calls after compilation timed alone."""
+    rows = []
+    for dtype_name in dtypes:
+        dtype = DTYPES[dtype_name]
+        for env in envs:
+            obs_dim, act_dim = ENV_SIZES[env]
+            obs = jax.random.normal(jax.random.key(1), (256, obs_dim), dtype)
+            cands = {}
+            for act in activations:
+                fn, params = _actor_forward(act, obs_dim, act_dim, dtype)
+                cands[act] = lambda fn=fn, params=params: fn(params, obs)
+            timings = time_interleaved(cands, repeats=calls, calls_per_sample=1, warmup=1)
+            swim_t, swish_t = timings["swim"], timings["swish"]
+            for act, t in timings.items():
+                rows.append(
+                    {"dtype": dtype_name, "env": env, "activation": act, **{f"{k}_ms": v for k, v in t.as_dict().items()}}
+                )
+            rows.append(
+                {
+                    "dtype": dtype_name,
+                    "env": env,
+                    "activation": "swim_vs_swish",
+                    "improvement_pct_mean": 100 * (swish_t.mean - swim_t.mean) / swim_t.mean,
+                    "improvement_pct_median": 100 * (swish_t.median - swim_t.median) / swim_t.median,
+                }
+            )
+    return rows
+
+
+def _update_program(activation: str, dtype, obs_dim=17, act_dim=6, updates=10):
+    """A jitted lax.scan of ``updates`` real TD3 updates (actor on every 2nd) on a fixed batch."""
+    from agents.replay import Transition
+    from agents.td3 import TD3, ActivationConfig, TD3Config
+
+    agent = TD3(
+        TD3Config(activation=ActivationConfig(name=activation)),
+        obs_dim=obs_dim,
+        action_low=(-1.0,) * act_dim,
+        action_high=(1.0,) * act_dim,
+        dtype=dtype,
+    )
+    keys = jax.random.split(jax.random.key(2), 6)
+    b = agent.config.batch_size
+    batch = Transition(
+        obs=jax.random.normal(keys[0], (b, obs_dim), dtype),
+        action=jax.random.uniform(keys[1], (b, act_dim), dtype, -1, 1),
+        reward=jax.random.normal(keys[2], (b,), dtype),
+        next_obs=jax.random.normal(keys[3], (b, obs_dim), dtype),
+        terminated=(jax.random.uniform(keys[4], (b,)) < 0.05).astype(dtype),
+    )
+    state = agent.init(keys[5])
+
+    @jax.jit
+    def run(state, key):
+        def body(state, i):
+            new, metrics = agent.update(state, batch, jax.random.fold_in(key, i), i % 2 == 1)
+            return new, metrics.critic_loss
+
+        return jax.lax.scan(body, state, jnp.arange(updates))
+
+    return run, state
+
+
+def bench_td3_update(dtypes, repeats: int, activations=("relu", "swish", "swim", "hard_swish", "mish"), updates=10):
+    """Section (c): ms per TD3 update (critic every update, actor every 2nd), median over repeats."""
+    rows = []
+    for dtype_name in dtypes:
+        dtype = DTYPES[dtype_name]
+        cands = {}
+        for act in activations:
+            run, state = _update_program(act, dtype, updates=updates)
+            key = jax.random.key(3)
+            cands[act] = lambda run=run, state=state, key=key: run(state, key)
+        timings = time_interleaved(cands, repeats=repeats, calls_per_sample=1)
+        for act, t in timings.items():
+            per_update = {f"{k}_ms": v / updates for k, v in t.as_dict().items()}
+            rows.append(
+                {
+                    "dtype": dtype_name,
+                    "activation": act,
+                    **per_update,
+                    "ratio_vs_swish": t.median / timings["swish"].median,
+                    "ratio_vs_relu": t.median / timings["relu"].median,
+                }
+            )
+    return rows
+
+
+# ----------------------------------------------------------------------------------------------
+
+
+def machine_info() -> dict:
+    """What the numbers were measured on: CPU, cores, versions, XLA flags, command line."""
+    cpu = platform.processor()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return {
+        "cpu": cpu,
+        "cores": os.cpu_count(),
+        "jax": jax.__version__,
+        "backend": jax.default_backend(),
+        "devices": [str(d) for d in jax.devices()],
+        "xla_flags": os.environ.get("XLA_FLAGS", ""),
+        "python": platform.python_version(),
+        "command": "python -m swim_jax.bench " + " ".join(sys.argv[1:]),
+        "time": _dt.datetime.now().isoformat(timespec="seconds"),
+    }
+
+
+def write_result(result: dict, out_dir: Path, prefix: str) -> Path:
+    """Write JSON to ``out_dir/<prefix>-<timestamp>.json`` without ever overwriting a file."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    stamp = _dt.datetime.now().strftime("%Y%m%d-%H%M%S")
+    path = out_dir / f"{prefix}-{stamp}.json"
+    n = 1
+    while path.exists():
+        path = out_dir / f"{prefix}-{stamp}-{n}.json"
+        n += 1
+    path.write_text(json.dumps(result, indent=2))
+    return path
+
+
+def reuse_heap_buffers() -> bool:
+    """Ask glibc to keep freed large buffers on the heap (no mmap/munmap per call).
+
+    Without it, every call that allocates a fresh (4096, 4096) output maps new pages and pays a
+    page fault per 4 KiB, which dominates an elementwise kernel of that size. Returns success.
+    """
+    try:
+        libc = ctypes.CDLL("libc.so.6")
+    except OSError:
+        return False
+    m_trim_threshold, m_mmap_threshold = -1, -3
+    return bool(libc.mallopt(m_mmap_threshold, 1 << 30)) and bool(libc.mallopt(m_trim_threshold, 1 << 31))
+
+
+def _print_table(title: str, rows: list[dict], columns: list[str]) -> None:
+    print(f"\n{title}")
+    widths = [max(len(c), *(len(_fmt(r.get(c))) for r in rows)) for c in columns]
+    print("  ".join(c.ljust(w) for c, w in zip(columns, widths)))
+    for r in rows:
+        print("  ".join(_fmt(r.get(c)).ljust(w) for c, w in zip(columns, widths)))
+
+
+def _fmt(v) -> str:
+    if isinstance(v, float):
+        return f"{v:.3f}" if abs(v) < 1e4 else f"{v:.0f}"
+    if isinstance(v, list):
+        return "x".join(map(str, v))
+    return "" if v is None else str(v)
+
+
+def _parse(argv, prog: str, description: str, sections: bool):
+    p = argparse.ArgumentParser(prog=prog, description=description)
+    p.add_argument("--quick", action="store_true", help="small sizes and few repeats (a smoke run, ~1 min)")
+    p.add_argument("--dtypes", default="float32,float64", help="comma list of float32, float64")
+    p.add_argument("--repeats", type=int, default=None, help="timed repeats per candidate (default 21; quick 5)")
+    p.add_argument("--out", default="runs/bench", help="folder for the JSON result (default runs/bench)")
+    p.add_argument(
+        "--no-heap-reuse", action="store_true", help="leave glibc's mmap threshold alone (see reuse_heap_buffers)"
+    )
+    if sections:
+        p.add_argument("--sections", default="a,b,c", help="comma list of a (elementwise), b (actor), c (update)")
+    args = p.parse_args(argv)
+    dtypes = [d.strip() for d in args.dtypes.split(",") if d.strip()]
+    bad = [d for d in dtypes if d not in DTYPES]
+    if bad or not dtypes:
+        p.exit(2, f"{prog}: invalid --dtypes {args.dtypes!r}; valid: float32, float64\n")
+    if sections:
+        secs = [s.strip() for s in args.sections.split(",") if s.strip()]
+        if not secs or any(s not in ("a", "b", "c") for s in secs):
+            p.exit(2, f"{prog}: invalid --sections {args.sections!r}; valid: a, b, c\n")
+        args.sections = secs
+    if args.repeats is not None and args.repeats < 1:
+        p.exit(2, f"{prog}: invalid --repeats {args.repeats}; it must be >= 1\n")
+    args.dtypes = dtypes
+    return args
+
+
+def main(argv: list[str]) -> int:
+    """``python -m swim_jax.bench activations``: sections (a), (b), (c); JSON under --out."""
+    args = _parse(argv, "swim_jax.bench activations", __doc__.split("\n")[0], sections=True)
+    with jax.enable_x64(True):  # float64 candidates need it; float32 ones name their dtype
+        return _run_activations(args)
+
+
+def _run_activations(args) -> int:
+    heap_reuse = False if args.no_heap_reuse else reuse_heap_buffers()
+    repeats = args.repeats or (5 if args.quick else 21)
+    result = {"machine": machine_info(), "heap_reuse": heap_reuse, "repeats": repeats, "quick": args.quick}
+    if "a" in args.sections:
+        shapes = [(256, 256)] if args.quick else [(256, 256), (4096, 4096)]
+        result["elementwise"] = rows = bench_elementwise(shapes, args.dtypes, repeats)
+        _print_table(
+            "(a) elementwise, median µs per call [min–max], speed-up vs jax.nn.swish",
+            rows,
+            ["dtype", "shape", "pass", "activation", "median_us", "min_us", "max_us", "speedup_vs_jax_nn_swish"],
+        )
+    if "b" in args.sections:
+        envs = ["Hopper"] if args.quick else list(ENV_SIZES)
+        calls = 20 if args.quick else 100
+        result["actor_inference"] = rows = bench_actor_inference(envs, args.dtypes, calls)
+        _print_table(
+            f"(b) Table III protocol: actor forward on 256 states, first {calls} calls, ms",
+            rows,
+            ["dtype", "env", "activation", "mean_ms", "std_ms", "median_ms", "improvement_pct_mean", "improvement_pct_median"],
+        )
+    if "c" in args.sections:
+        acts = ("relu", "swish", "swim") if args.quick else ("relu", "swish", "swim", "hard_swish", "mish")
+        result["td3_update"] = rows = bench_td3_update(args.dtypes, repeats, activations=acts)
+        _print_table(
+            "(c) one TD3 update (256-256, batch 256; actor every 2nd), ms per update",
+            rows,
+            ["dtype", "activation", "median_ms", "min_ms", "max_ms", "ratio_vs_swish", "ratio_vs_relu"],
+        )
+    path = write_result(result, Path(args.out), "activations")
+    print(f"\nwrote {path}")
+    return 0
+
+
+def rsqrt_variants() -> dict:
+    """name -> v ↦ 1/√v for every inverse-square-root variant Swim can use."""
+    return {
+        "lax.rsqrt": jax.lax.rsqrt,
+        "1/sqrt": lambda v: 1 / jnp.sqrt(v),
+        **{f"newton{n}": (lambda v, n=n: A.rsqrt_newton(v, n)) for n in (1, 2, 3)},
+    }
+
+
+def rsqrt_accuracy(stride: int = 1) -> dict:
+    """Max relative error of each variant on every ``stride``-th float32 in [1, 4).
+
+    [1, 4) spans two binades, i.e. every (mantissa, exponent parity) pair; the relative error of
+    a bit-level guess refined by Newton steps depends only on those, so this covers all normal
+    float32 inputs. The reference is 1/√v in float64.
+    """
+    bits = np.arange(0x3F800000, 0x40800000, stride, dtype=np.uint32)
+    v = bits.view(np.float32)
+    exact = 1 / np.sqrt(v.astype(np.float64))
+    out = {}
+    for name, fn in rsqrt_variants().items():
+        y = np.asarray(jax.jit(fn)(jnp.asarray(v)), np.float64)
+        out[name] = float(np.max(np.abs(y / exact - 1)))
+    return out
+
+
+def main_rsqrt(argv: list[str]) -> int:
+    """``python -m swim_jax.bench rsqrt``: accuracy over float32 and elementwise speed."""
+    args = _parse(argv, "swim_jax.bench rsqrt", "inverse square root variants", sections=False)
+    heap_reuse = False if args.no_heap_reuse else reuse_heap_buffers()
+    repeats = args.repeats or (5 if args.quick else 21)
+    errors = rsqrt_accuracy(stride=61 if args.quick else 1)
+    shapes = [(256, 256)] if args.quick else [(256, 256), (4096, 4096)]
+    rows = []
+    for shape in shapes:
+        v = (1 + jax.random.uniform(jax.random.key(0), shape, jnp.float32, 0, 100)).block_until_ready()
+        cands = {name: (lambda f=jax.jit(fn): f(v)) for name, fn in rsqrt_variants().items()}
+        timings = time_interleaved(cands, repeats=repeats, calls_per_sample=calls_for(cands["lax.rsqrt"]))
+        for name, t in timings.items():
+            rows.append(
+                {
+                    "shape": list(shape),
+                    "variant": name,
+                    "max_rel_error_f32": errors[name],
+                    **{f"{k}_us": x for k, x in t.as_dict(1e6).items()},
+                    "speedup_vs_lax_rsqrt": timings["lax.rsqrt"].median / t.median,
+                }
+            )
+    _print_table(
+        "inverse square root, float32: max relative error over every mantissa; median µs per call",
+        rows,
+        ["shape", "variant", "max_rel_error_f32", "median_us", "min_us", "max_us", "speedup_vs_lax_rsqrt"],
+    )
+    path = write_result({"machine": machine_info(), "heap_reuse": heap_reuse, "rows": rows}, Path(args.out), "rsqrt")
+    print(f"\nwrote {path}")
+    return 0
+

@@ -1,0 +1,77 @@
+"""The benchmark and figure CLIs: real runs on tiny settings, output files checked, bad input."""
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from swim_jax import bench, plots
+from swim_jax.bench_activations import main as bench_activations_main
+from swim_jax.bench_activations import main_rsqrt
+
+
+def test_unknown_benchmark_exits_2_with_valid_choices(capsys):
+    assert bench.main(["bogus"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["swim_jax.bench: unknown benchmark 'bogus'; valid: activations, rsqrt, envs"]
+
+
+@pytest.mark.parametrize(
+    "args,needle",
+    [(["--dtypes", "float16"], "valid: float32, float64"), (["--sections", "z"], "valid: a, b, c"), (["--repeats", "0"], ">= 1")],
+)
+def test_bad_options_exit_2_and_write_nothing(tmp_path, args, needle):
+    proc = subprocess.run(
+        [sys.executable, "-m", "swim_jax.bench", "activations", "--out", str(tmp_path / "o"), *args],
+        capture_output=True,
+        text=True,
+    )
+    assert proc.returncode == 2
+    assert needle in proc.stderr
+    assert not (tmp_path / "o").exists()
+
+
+def test_rsqrt_benchmark_measures_the_documented_accuracy(tmp_path):
+    assert main_rsqrt(["--quick", "--repeats", "1", "--out", str(tmp_path)]) == 0
+    (path,) = tmp_path.glob("rsqrt-*.json")
+    rows = json.loads(path.read_text())["rows"]
+    err = {r["variant"]: r["max_rel_error_f32"] for r in rows}
+    assert err["newton2"] < 1e-6 < err["newton1"]
+    assert err["lax.rsqrt"] < 2e-7
+
+
+def test_elementwise_benchmark_writes_every_candidate(tmp_path):
+    assert bench_activations_main(["--quick", "--sections", "a", "--dtypes", "float32", "--repeats", "1", "--out", str(tmp_path)]) == 0
+    (path,) = tmp_path.glob("activations-*.json")
+    result = json.loads(path.read_text())
+    names = {(r["activation"], r["pass"]) for r in result["elementwise"]}
+    for act in ("swim", "swim[plain autodiff]", "jax.nn.swish", "relu", "hard_swish", "mish"):
+        assert (act, "fwd") in names and (act, "fwd+bwd") in names
+    assert all(r["median_us"] > 0 for r in result["elementwise"])
+    assert result["machine"]["cores"] >= 1
+
+
+@pytest.mark.slow
+def test_actor_and_update_benchmarks_run(tmp_path):
+    assert bench_activations_main(["--quick", "--sections", "b,c", "--repeats", "2", "--out", str(tmp_path)]) == 0
+    result = json.loads(next(tmp_path.glob("activations-*.json")).read_text())
+    assert {r["activation"] for r in result["td3_update"]} == {"relu", "swish", "swim"}
+    assert any(r["activation"] == "swim_vs_swish" for r in result["actor_inference"])
+
+
+def test_activation_figures_are_written(tmp_path):
+    paths = plots.plot_activations(tmp_path / "figs")
+    assert [p.name for p in paths] == ["fig1_activations.png", "fig2_derivatives.png"]
+    for p in paths:
+        assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and p.stat().st_size > 10_000
+
+
+def test_plots_cli_refuses_a_file_as_output_folder(tmp_path):
+    target = tmp_path / "file.txt"
+    target.write_text("keep me")
+    proc = subprocess.run(
+        [sys.executable, "-m", "swim_jax.plots", "activations", "--out", str(target)], capture_output=True, text=True
+    )
+    assert proc.returncode == 2 and "is not a folder" in proc.stderr
+    assert target.read_text() == "keep me"
