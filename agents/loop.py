@@ -1,0 +1,190 @@
+"""The jitted TD3 training program: per-seed state, a ``lax.scan`` chunk of env steps, batched eval.
+
+Seeds are a leading (vmapped) axis of every array in :class:`TrainState`. Each seed's randomness
+comes only from its own keys: ``fold_in(PRNGKey(base_seed), seed_index)`` split into
+(init, train, env, eval) keys, so seed i alone equals seed i in a vmapped run.
+
+One env step t (global index, shared by all seeds, so the branches below stay real branches
+under vmap) for one seed, following the original TD3 ``main.py``:
+
+    a_t  = U(low, high)                         if t < learning_starts
+         = clip(μ(s_t) + N(0,(0.1 m)²), low, high)  otherwise
+    (s', s_final) = step_autoreset(env, s_t, a_t)       s_final = true obs reached by the step
+    replay ← (s_t, a_t, r_t, s_final, terminated = done·(1 − truncation))
+    if t ≥ learning_starts: one TD3 update, the actor's on iterations it = t − learning_starts + 1
+                            with it mod policy_freq = 0 (the original's ``total_it``)
+
+Evaluation: ``episodes`` episodes per seed with the deterministic actor, all seeds × episodes
+stepped together in one ``lax.while_loop`` that stops once every episode has ended (or after
+``max_steps``); rewards after an episode's end are masked out.
+"""
+
+from __future__ import annotations
+
+from typing import Any, NamedTuple
+
+import jax
+import jax.numpy as jnp
+
+import envs
+from agents import replay
+from agents.td3 import TD3, TD3State, UpdateMetrics
+
+Array = jax.Array
+
+# Quantities checked for NaN/inf each step, in the order of ``TrainState.bad_step``'s last axis.
+CHECKED = ("critic_loss", "actor_loss", "actor_params", "critic_params")
+
+
+class TrainState(NamedTuple):
+    """Everything one seed's training needs to continue (leading seed axis when batched)."""
+
+    key: Array  # training key stream (uint32[2])
+    eval_key: Array  # evaluation key (fold_in with the evaluation index)
+    env_state: Any  # envs State (obs, physics, step counter)
+    buffer: replay.ReplayState
+    agent: TD3State
+    episode_return: Array  # return of the running training episode
+    last_return: Array  # return of the last finished training episode (nan before the first)
+    episodes: Array  # finished training episodes (int32)
+    bad_step: Array  # int32[len(CHECKED)]: first step where the quantity was non-finite, or -1
+
+
+def seed_keys(base_seed: int, seed_index: Array) -> tuple[Array, Array, Array, Array]:
+    """(init, train, env, eval) keys of seed ``seed_index``: split(fold_in(PRNGKey(base), i), 4)."""
+    k = jax.random.fold_in(jax.random.PRNGKey(base_seed), seed_index)
+    k_init, k_train, k_env, k_eval = jax.random.split(k, 4)
+    return k_init, k_train, k_env, k_eval
+
+
+def init_state(agent: TD3, env, replay_size: int, base_seed: int, seed_index: Array) -> TrainState:
+    """Fresh per-seed state: initial params, empty buffer, env reset with the seed's env key."""
+    k_init, k_train, k_env, k_eval = seed_keys(base_seed, seed_index)
+    dt = agent.dtype
+    return TrainState(
+        key=k_train,
+        eval_key=k_eval,
+        env_state=env.reset(k_env),
+        buffer=replay.init(replay_size, agent.obs_dim, agent.action_dim, dt),
+        agent=agent.init(k_init),
+        episode_return=jnp.zeros((), dt),
+        last_return=jnp.full((), jnp.nan, dt),
+        episodes=jnp.zeros((), jnp.int32),
+        bad_step=jnp.full((len(CHECKED),), -1, jnp.int32),
+    )
+
+
+def _all_finite(tree) -> Array:
+    leaves = jax.tree.leaves(tree)
+    return jnp.all(jnp.stack([jnp.all(jnp.isfinite(x)) for x in leaves]))
+
+
+def _zero_metrics(dt) -> UpdateMetrics:
+    z = jnp.zeros((), dt)
+    return UpdateMetrics(z, z, z, jnp.zeros((), jnp.bool_))
+
+
+def env_step(agent: TD3, env, learning_starts: int, s: TrainState, t: Array):
+    """Act (random before ``learning_starts``, else exploration), step with auto-reset and insert
+    the transition. Returns (state with new key/env/buffer/episode stats, update key)."""
+    key, k_act, k_reset, k_update = jax.random.split(s.key, 4)
+    obs = s.env_state.obs
+    action = jax.lax.cond(
+        t < learning_starts,
+        lambda: agent.random_action(k_act),
+        lambda: agent.explore(s.agent.actor, obs, k_act),
+    )
+    next_state, final_obs = envs.step_autoreset(env, s.env_state, action, k_reset)
+    done = next_state.done > 0
+    terminated = next_state.done * (1 - next_state.info["truncation"])
+    buffer = replay.add(s.buffer, replay.Transition(obs, action, next_state.reward, final_obs, terminated))
+    ep_ret = s.episode_return + next_state.reward.astype(s.episode_return.dtype)
+    s = s._replace(
+        key=key,
+        env_state=next_state,
+        buffer=buffer,
+        episode_return=jnp.where(done, jnp.zeros_like(ep_ret), ep_ret),
+        last_return=jnp.where(done, ep_ret, s.last_return),
+        episodes=s.episodes + done.astype(jnp.int32),
+    )
+    return s, k_update
+
+
+def train_step(agent: TD3, env, learning_starts: int, s: TrainState, t: Array) -> TrainState:
+    """One env step and (from ``learning_starts`` on) one TD3 update for one seed at global step t."""
+    s, k_update = env_step(agent, env, learning_starts, s, t)
+    k_sample, k_td3 = jax.random.split(k_update)
+    it = t - learning_starts + 1
+    update_actor = (it % agent.config.policy_freq) == 0
+
+    def do_update(a: TD3State):
+        batch = replay.sample(s.buffer, k_sample, agent.config.batch_size)
+        return agent.update(a, batch, k_td3, update_actor)
+
+    agent_state, m = jax.lax.cond(
+        t >= learning_starts, do_update, lambda a: (a, _zero_metrics(agent.dtype)), s.agent
+    )
+    ok = jnp.stack([
+        jnp.isfinite(m.critic_loss),
+        jnp.isfinite(m.actor_loss),
+        _all_finite(agent_state.actor),
+        _all_finite(agent_state.critic),
+    ])
+    bad_step = jnp.where((s.bad_step < 0) & ~ok, t.astype(jnp.int32), s.bad_step)
+    return s._replace(agent=agent_state, bad_step=bad_step)
+
+
+def make_chunk_fn(agent: TD3, env, learning_starts: int, num_steps: int):
+    """``chunk(states, t0) -> states``: ``num_steps`` env steps t0 … t0+num_steps−1 for all seeds
+    (states batched on axis 0; t0 an int32 scalar shared by the seeds). Jit it once."""
+
+    def chunk(states: TrainState, t0: Array) -> TrainState:
+        def body(carry, i):
+            t = (t0 + i).astype(jnp.int32)
+            carry = jax.vmap(lambda s: train_step(agent, env, learning_starts, s, t))(carry)
+            return carry, None
+
+        states, _ = jax.lax.scan(body, states, jnp.arange(num_steps, dtype=jnp.int32))
+        return states
+
+    return chunk
+
+
+def make_eval_fn(agent: TD3, env, episodes: int, max_steps: int, random_policy: bool = False):
+    """``evaluate(actor_params[S], eval_keys[S], eval_index) -> returns[S, episodes]``.
+
+    Episode e of seed s starts from ``env.reset(split(fold_in(eval_key_s, eval_index), episodes)[e])``;
+    actions are μ_s(obs) (or U(low, high) from the same keys when ``random_policy``). All S×episodes
+    envs step together until every one is done (or ``max_steps``); return = Σ rewards up to and
+    including each episode's terminal step. Returns float per episode."""
+
+    def evaluate(actor_params, eval_keys: Array, eval_index: Array) -> Array:
+        keys = jax.vmap(lambda k: jax.random.split(jax.random.fold_in(k, eval_index), episodes))(eval_keys)
+        reset_keys, act_keys = keys, jax.vmap(jax.vmap(lambda k: jax.random.fold_in(k, 1)))(keys)
+        states = jax.vmap(jax.vmap(env.reset))(reset_keys)
+        S = eval_keys.shape[0]
+        dt = states.reward.dtype
+        init = (jnp.zeros((), jnp.int32), states, jnp.zeros((S, episodes), jnp.bool_),
+                jnp.zeros((S, episodes), dt), act_keys)
+
+        def cond(c):
+            t, _, done, _, _ = c
+            return (t < max_steps) & ~jnp.all(done)
+
+        def body(c):
+            t, st, done, ret, ak = c
+            if random_policy:
+                split = jax.vmap(jax.vmap(jax.random.split))(ak)
+                ak, sub = split[:, :, 0], split[:, :, 1]
+                a = jax.vmap(jax.vmap(agent.random_action))(sub)
+            else:
+                a = jax.vmap(agent.act)(actor_params, st.obs)
+            st = jax.vmap(jax.vmap(env.step))(st, a)
+            ret = ret + jnp.where(done, jnp.zeros_like(st.reward), st.reward)
+            done = done | (st.done > 0)
+            return t + 1, st, done, ret, ak
+
+        _, _, _, ret, _ = jax.lax.while_loop(cond, body, init)
+        return ret
+
+    return evaluate

@@ -1,0 +1,244 @@
+"""Run configuration: typed dataclasses, YAML files with ``inherit``, dotted ``key=value`` overrides.
+
+Resolution order (later wins): the dataclass defaults (= the TD3 reference protocol) → the chain
+of YAML files (``configs/<name>.yaml``; a file's ``inherit: <other>`` is loaded first and deep-merged
+under it) → command-line overrides ``a.b.c=value`` (values parsed as YAML scalars/lists).
+Every problem (unknown key, wrong type, unknown env/activation/precision, inconsistent numbers)
+raises ``ConfigError`` with ONE line naming the valid choices.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import typing
+from dataclasses import dataclass, field
+from typing import Any, Mapping
+
+import yaml
+
+from agents.td3 import ActivationConfig, TD3Config
+
+CONFIG_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "configs")
+PRECISIONS = ("float32", "float64")
+
+
+class ConfigError(ValueError):
+    """A configuration problem, phrased as one line for the user."""
+
+
+@dataclass(frozen=True)
+class EnvConfig:
+    """Environment id (``envs.ENV_IDS``) and its time limit."""
+
+    id: str = "Walker2d-v5"
+    max_episode_steps: int = 1000
+
+
+@dataclass(frozen=True)
+class Config:
+    """One training run (all seeds). Defaults = the paper's protocol with the TD3 reference."""
+
+    env: EnvConfig = field(default_factory=EnvConfig)
+    agent: TD3Config = field(default_factory=TD3Config)
+    seeds: int = 5  # number of seeds, a vmapped axis
+    first_seed: int = 0  # seed indices are first_seed .. first_seed + seeds - 1
+    seed: int = 0  # base seed; seed i's keys are fold_in(PRNGKey(seed), i)
+    total_steps: int = 1_000_000
+    learning_starts: int = 25_000  # uniform-random steps before the first update
+    eval_freq: int = 5000  # env steps per chunk; one evaluation after each chunk (+ one at step 0)
+    eval_episodes: int = 10
+    replay_size: int = 1_000_000
+    precision: str = "float32"
+    out_dir: str = "runs"
+    keep_checkpoints: int = 3
+    name: str = ""  # run name (defaults to the config file name)
+
+
+# ------------------------------------------------------------------------------------------------
+# dict <-> dataclass with type checking
+# ------------------------------------------------------------------------------------------------
+
+def to_dict(cfg) -> dict:
+    """Plain nested dict (tuples become lists) for YAML."""
+    out = {}
+    for f in dataclasses.fields(cfg):
+        v = getattr(cfg, f.name)
+        if dataclasses.is_dataclass(v):
+            v = to_dict(v)
+        elif isinstance(v, tuple):
+            v = list(v)
+        out[f.name] = v
+    return out
+
+
+def _type_name(tp) -> str:
+    return getattr(tp, "__name__", str(tp)).replace("typing.", "")
+
+
+def _coerce(value, tp, path: str):
+    origin = typing.get_origin(tp)
+    if tp is bool:
+        if isinstance(value, bool):
+            return value
+    elif tp is int:
+        if isinstance(value, int) and not isinstance(value, bool):
+            return value
+        if isinstance(value, float) and value.is_integer():  # 1e6 written in YAML
+            return int(value)
+    elif tp is float:
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            return float(value)
+    elif tp is str:
+        if isinstance(value, str):
+            return value
+    elif origin is tuple:
+        (elem, _ell) = typing.get_args(tp)
+        if isinstance(value, (list, tuple)):
+            return tuple(_coerce(v, elem, f"{path}[{i}]") for i, v in enumerate(value))
+        if isinstance(value, int) and not isinstance(value, bool):
+            return (value,)
+        raise ConfigError(f"{path}: expected a list of {_type_name(elem)}, got {value!r}")
+    raise ConfigError(f"{path}: expected {_type_name(tp)}, got {value!r} ({type(value).__name__})")
+
+
+def from_dict(cls, data: Mapping[str, Any], prefix: str = ""):
+    """Build dataclass ``cls`` from a nested dict; unknown keys and wrong types raise ConfigError."""
+    hints = typing.get_type_hints(cls)
+    names = [f.name for f in dataclasses.fields(cls)]
+    if not isinstance(data, Mapping):
+        raise ConfigError(f"{prefix.rstrip('.') or 'config'}: expected a mapping, got {data!r}")
+    unknown = [k for k in data if k not in names]
+    if unknown:
+        raise ConfigError(
+            f"unknown key {prefix + str(unknown[0])!r}; valid keys{' under ' + prefix.rstrip('.') if prefix else ''}: "
+            f"{', '.join(names)}"
+        )
+    kwargs = {}
+    for name in names:
+        if name not in data:
+            continue
+        tp = hints[name]
+        if dataclasses.is_dataclass(tp):
+            kwargs[name] = from_dict(tp, data[name] if data[name] is not None else {}, f"{prefix}{name}.")
+        else:
+            kwargs[name] = _coerce(data[name], tp, prefix + name)
+    return cls(**kwargs)
+
+
+def deep_merge(base: dict, over: Mapping) -> dict:
+    """Recursive dict merge: values of ``over`` win; nested mappings merge key by key."""
+    out = dict(base)
+    for k, v in over.items():
+        if isinstance(v, Mapping) and isinstance(out.get(k), Mapping):
+            out[k] = deep_merge(out[k], v)
+        else:
+            out[k] = v
+    return out
+
+
+def available_configs(config_dir: str = CONFIG_DIR) -> list[str]:
+    """Names of the YAML configs (without extension), excluding ``_``-prefixed shared bases."""
+    if not os.path.isdir(config_dir):
+        return []
+    return sorted(f[:-5] for f in os.listdir(config_dir) if f.endswith(".yaml") and not f.startswith("_"))
+
+
+def load_yaml_chain(name: str, config_dir: str = CONFIG_DIR, _seen=()) -> dict:
+    """Load ``configs/<name>.yaml`` with its ``inherit`` chain merged (parents first)."""
+    path = name if name.endswith(".yaml") and os.path.isfile(name) else os.path.join(config_dir, f"{name}.yaml")
+    if not os.path.isfile(path):
+        raise ConfigError(f"unknown config {name!r}; valid configs: {', '.join(available_configs(config_dir))}")
+    if path in _seen:
+        raise ConfigError(f"config {name!r}: circular inherit")
+    with open(path) as f:
+        try:
+            data = yaml.safe_load(f) or {}
+        except yaml.YAMLError as e:
+            raise ConfigError(f"config {name!r}: invalid YAML ({str(e).splitlines()[0]})") from None
+    if not isinstance(data, dict):
+        raise ConfigError(f"config {name!r}: expected a mapping at top level")
+    parent = data.pop("inherit", None)
+    if parent is not None:
+        data = deep_merge(load_yaml_chain(str(parent), config_dir, _seen + (path,)), data)
+    return data
+
+
+def parse_override(item: str) -> tuple[list[str], Any]:
+    """``"a.b=3"`` → (["a", "b"], 3); the value is parsed as YAML (int/float/bool/str/list)."""
+    if "=" not in item:
+        raise ConfigError(f"expected key=value, got {item!r}")
+    key, raw = item.split("=", 1)
+    if not key or any(not p for p in key.split(".")):
+        raise ConfigError(f"bad key in {item!r}")
+    try:
+        value = yaml.safe_load(raw) if raw != "" else ""
+    except yaml.YAMLError:
+        value = raw
+    return key.split("."), value
+
+
+def apply_overrides(data: dict, overrides: list[str]) -> dict:
+    """Set each dotted key (creating nested dicts); validation happens in ``from_dict``."""
+    data = dict(data)
+    for item in overrides:
+        path, value = parse_override(item)
+        node = data
+        for p in path[:-1]:
+            child = node.get(p)
+            child = dict(child) if isinstance(child, Mapping) else {}
+            node[p] = child
+            node = child
+        node[path[-1]] = value
+    return data
+
+
+def validate(cfg: Config) -> Config:
+    """Semantic checks (env id, activation, precision, step arithmetic); returns cfg."""
+    import envs  # local: heavy import (mujoco), only needed once a config is built
+    from swim_jax.activations import ACTIVATIONS, validate_params
+
+    if cfg.env.id not in envs.ENV_IDS:
+        raise ConfigError(f"unknown env.id {cfg.env.id!r}; valid: {', '.join(envs.ENV_IDS)}")
+    act = cfg.agent.activation
+    if act.name not in ACTIVATIONS:
+        raise ConfigError(f"unknown agent.activation.name {act.name!r}; valid: {', '.join(sorted(ACTIVATIONS))}")
+    try:
+        validate_params(act.name, act.params())
+    except ValueError as e:
+        raise ConfigError(str(e)) from None
+    if act.learnable and not act.params():
+        raise ConfigError(f"agent.activation.learnable=true needs an activation with a parameter; valid: swim, swish")
+    if cfg.precision not in PRECISIONS:
+        raise ConfigError(f"unknown precision {cfg.precision!r}; valid: {', '.join(PRECISIONS)}")
+    positive = {
+        "seeds": cfg.seeds, "total_steps": cfg.total_steps, "eval_freq": cfg.eval_freq,
+        "eval_episodes": cfg.eval_episodes, "replay_size": cfg.replay_size,
+        "keep_checkpoints": cfg.keep_checkpoints, "env.max_episode_steps": cfg.env.max_episode_steps,
+        "agent.batch_size": cfg.agent.batch_size, "agent.policy_freq": cfg.agent.policy_freq,
+    }
+    for k, v in positive.items():
+        if v < 1:
+            raise ConfigError(f"{k} must be >= 1, got {v}")
+    if cfg.first_seed < 0 or cfg.learning_starts < 0:
+        raise ConfigError("first_seed and learning_starts must be >= 0")
+    if cfg.total_steps % cfg.eval_freq:
+        raise ConfigError(f"total_steps ({cfg.total_steps}) must be a multiple of eval_freq ({cfg.eval_freq})")
+    if not cfg.agent.hidden or any(h < 1 for h in cfg.agent.hidden):
+        raise ConfigError(f"agent.hidden must be a non-empty list of positive widths, got {list(cfg.agent.hidden)}")
+    return cfg
+
+
+def resolve(config: str | None, overrides: list[str], config_dir: str = CONFIG_DIR) -> Config:
+    """Defaults ← YAML chain of ``config`` (if given) ← overrides, type-checked and validated."""
+    data = load_yaml_chain(config, config_dir) if config else {}
+    data = apply_overrides(data, overrides)
+    cfg = from_dict(Config, data)
+    if not cfg.name:
+        cfg = dataclasses.replace(cfg, name=os.path.basename(config)[:-5] if config and config.endswith(".yaml") else (config or "run"))
+    return validate(cfg)
+
+
+def dump(cfg: Config) -> str:
+    """The resolved config as YAML (round-trips through ``from_dict``)."""
+    return yaml.safe_dump(to_dict(cfg), sort_keys=False)

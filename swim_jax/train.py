@@ -1,0 +1,328 @@
+"""Train TD3 on every seed at once: ``python -m swim_jax.train config=walker_swim [key=value ...]``.
+
+    python -m swim_jax.train config=cheetah_swim seeds=5 total_steps=200000 precision=float64
+    python -m swim_jax.train --resume runs/cheetah_swim-20260101-120000     (or resume=<dir>)
+
+The jitted program (agents/loop.py) runs ``eval_freq`` env steps (with their updates) for all seeds
+per call; this module only loops over those chunks: evaluation (step 0 and after every chunk, so
+1 + total_steps/eval_freq evaluations, like the original TD3 code), progress line, checkpoint.
+
+Outputs in ``<out_dir>/<name>-<UTC timestamp>/``:
+  config.yaml                  the resolved config (what ``--resume`` reloads)
+  evaluations.csv              step, seed_<i> (mean return of the eval episodes), mean, std
+  evaluations.npy              [n_evals, seeds] mean returns; evaluations_seed<i>.npy: [n_evals]
+  evaluations_episodes.npy     [n_evals, seeds, eval_episodes] every episode's return
+  timing.json                  wall time, env-steps/s (aggregate and per seed), compile counts
+  checkpoints/<step>/          orbax: the whole training state (last ``keep_checkpoints``)
+  final_policy.npz             actor parameters, leading axis = seed
+
+Exit status: 0 done; 2 bad command line/config (one line on stderr, nothing written);
+3 NaN/inf detected (message names seed, step and quantity; last good checkpoint kept).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+import sys
+import time
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+import yaml
+
+from swim_jax import config as cfgmod
+from swim_jax.config import Config, ConfigError
+
+USAGE = (
+    "usage: python -m swim_jax.train config=<name> [key=value ...]\n"
+    "       python -m swim_jax.train --resume <run dir>"
+)
+
+
+class NonFiniteError(RuntimeError):
+    """Training produced NaN/inf; the message names seed, step and quantity."""
+
+
+@dataclass
+class RunResult:
+    """What a finished (or resumed) run produced, for callers and tests."""
+
+    run_dir: str
+    evaluations: np.ndarray  # [n_evals, seeds, episodes]
+    final_actor: dict  # actor params, leading seed axis (numpy)
+    states: object  # final TrainState (device arrays)
+    chunk_fn: object  # the jitted chunk (inspect ``_cache_size()``)
+    eval_fn: object
+    timing: dict
+
+
+# ------------------------------------------------------------------------------------------------
+# setup
+# ------------------------------------------------------------------------------------------------
+
+def _setup_precision(cfg: Config) -> None:
+    import jax
+
+    jax.config.update("jax_enable_x64", cfg.precision == "float64")
+
+
+def build(cfg: Config):
+    """(env, eval env, agent) for a validated config, in the configured precision."""
+    import jax.numpy as jnp
+
+    import envs
+    from agents.td3 import TD3
+
+    _setup_precision(cfg)
+    env = envs.make(cfg.env.id, max_episode_steps=cfg.env.max_episode_steps)
+    eval_env = envs.make(cfg.env.id, max_episode_steps=cfg.env.max_episode_steps)
+    dtype = jnp.float64 if cfg.precision == "float64" else jnp.float32
+    agent = TD3(
+        cfg.agent,
+        env.observation_size,
+        tuple(float(x) for x in np.asarray(env.action_low)),
+        tuple(float(x) for x in np.asarray(env.action_high)),
+        dtype=dtype,
+    )
+    return env, eval_env, agent
+
+
+def new_run_dir(cfg: Config) -> str:
+    stamp = time.strftime("%Y%m%d-%H%M%S", time.gmtime())
+    base = os.path.join(cfg.out_dir, f"{cfg.name}-{stamp}")
+    path, n = base, 1
+    while os.path.exists(path):
+        n += 1
+        path = f"{base}-{n}"
+    return path
+
+
+def _fmt_time(sec: float) -> str:
+    if not math.isfinite(sec):
+        return "?"
+    sec = int(round(sec))
+    return f"{sec // 3600}:{sec % 3600 // 60:02d}:{sec % 60:02d}"
+
+
+# ------------------------------------------------------------------------------------------------
+# outputs
+# ------------------------------------------------------------------------------------------------
+
+def write_evaluations(run_dir: str, cfg: Config, evals: np.ndarray, n_done: int) -> None:
+    """Write the first ``n_done`` evaluations (CSV + .npy), overwriting earlier versions."""
+    ev = evals[:n_done]
+    means = ev.mean(axis=2)  # [n, seeds]
+    np.save(os.path.join(run_dir, "evaluations.npy"), means)
+    np.save(os.path.join(run_dir, "evaluations_episodes.npy"), ev)
+    for i in range(cfg.seeds):
+        np.save(os.path.join(run_dir, f"evaluations_seed{cfg.first_seed + i}.npy"), means[:, i])
+    with open(os.path.join(run_dir, "evaluations.csv"), "w") as f:
+        cols = [f"seed_{cfg.first_seed + i}" for i in range(cfg.seeds)]
+        f.write(",".join(["step", *cols, "mean", "std"]) + "\n")
+        for j in range(n_done):
+            row = [str(j * cfg.eval_freq), *(repr(float(x)) for x in means[j]),
+                   repr(float(means[j].mean())), repr(float(means[j].std()))]
+            f.write(",".join(row) + "\n")
+
+
+def _actor_npz(path: str, actor) -> dict:
+    import jax
+
+    flat = {
+        "/".join(str(getattr(k, "key", k)) for k in kp): np.asarray(v)
+        for kp, v in jax.tree_util.tree_flatten_with_path(actor)[0]
+    }
+    np.savez(path, **flat)
+    return flat
+
+
+def _first_bad(bad_step: np.ndarray):
+    """(seed position, step, quantity) of the earliest non-finite event, or None."""
+    from agents.loop import CHECKED
+
+    bad = np.where(bad_step < 0, np.iinfo(np.int64).max, bad_step.astype(np.int64))
+    if bad.min() == np.iinfo(np.int64).max:
+        return None
+    s, q = np.unravel_index(np.argmin(bad), bad.shape)
+    return int(s), int(bad[s, q]), CHECKED[q]
+
+
+# ------------------------------------------------------------------------------------------------
+# the run
+# ------------------------------------------------------------------------------------------------
+
+def run(cfg: Config, run_dir: str, resume: bool = False, log: Callable[[str], None] = print) -> RunResult:
+    """Train all seeds of ``cfg`` writing into ``run_dir`` (created); continue from the newest
+    checkpoint there when ``resume``. Raises NonFiniteError on NaN/inf (no checkpoint written)."""
+    import jax
+    import jax.numpy as jnp
+
+    from agents import loop
+    from swim_jax.checkpoint import Checkpointer
+
+    t_start = time.time()
+    env, eval_env, agent = build(cfg)
+    os.makedirs(run_dir, exist_ok=True)
+    cfg_path = os.path.join(run_dir, "config.yaml")
+    if not resume:
+        with open(cfg_path, "w") as f:
+            f.write(cfgmod.dump(cfg))
+
+    n_chunks = cfg.total_steps // cfg.eval_freq
+    n_evals = n_chunks + 1
+    seed_ids = jnp.arange(cfg.first_seed, cfg.first_seed + cfg.seeds, dtype=jnp.int32)
+    init_fn = jax.jit(jax.vmap(lambda i: loop.init_state(agent, env, cfg.replay_size, cfg.seed, i)))
+    chunk_fn = jax.jit(loop.make_chunk_fn(agent, env, cfg.learning_starts, cfg.eval_freq), donate_argnums=0)
+    eval_fn = jax.jit(loop.make_eval_fn(agent, eval_env, cfg.eval_episodes, cfg.env.max_episode_steps))
+    ckpt = Checkpointer(os.path.join(run_dir, "checkpoints"), keep=cfg.keep_checkpoints)
+
+    evals = np.full((n_evals, cfg.seeds, cfg.eval_episodes), np.nan)
+    eval_time = 0.0
+
+    def evaluate(states, j):
+        nonlocal eval_time
+        t0 = time.time()
+        r = np.asarray(eval_fn(states.agent.actor, states.eval_key, jnp.asarray(j, jnp.int32)))
+        eval_time += time.time() - t0
+        evals[j] = r
+
+    start_chunk = 0
+    if resume and ckpt.latest_step() is not None:
+        step = ckpt.latest_step()
+        # evals are stored in the compute dtype (exact: every return was computed in it)
+        template = (jax.eval_shape(init_fn, seed_ids), jax.ShapeDtypeStruct(evals.shape, jnp.asarray(evals).dtype))
+        states, saved_evals = ckpt.restore(step, template)
+        start_chunk = step // cfg.eval_freq
+        evals[:] = np.asarray(saved_evals)
+        log(f"resumed {run_dir} at step {step}")
+    else:
+        states = init_fn(seed_ids)
+        evaluate(states, 0)
+        if resume:
+            log(f"no checkpoint in {run_dir}; starting from step 0")
+    write_evaluations(run_dir, cfg, evals, start_chunk + 1)
+
+    train_time, steps_timed, first_chunk_time = 0.0, 0, None
+    for c in range(start_chunk, n_chunks):
+        t0 = time.time()
+        states = chunk_fn(states, jnp.asarray(c * cfg.eval_freq, jnp.int32))
+        bad = np.asarray(states.bad_step)
+        dt = time.time() - t0
+        if first_chunk_time is None:
+            first_chunk_time = dt  # includes compilation
+        else:
+            train_time += dt
+            steps_timed += cfg.eval_freq
+        step = (c + 1) * cfg.eval_freq
+        hit = _first_bad(bad)
+        if hit is not None:
+            s, st, q = hit
+            last = ckpt.latest_step()
+            raise NonFiniteError(
+                f"non-finite {q} in seed {cfg.first_seed + s} at step {st}; stopped "
+                f"(last good checkpoint: {'none' if last is None else f'step {last}'} in {run_dir}/checkpoints)"
+            )
+        evaluate(states, c + 1)
+        ckpt.save(step, (states, jnp.asarray(evals)))
+        write_evaluations(run_dir, cfg, evals, c + 2)
+        means = evals[c + 1].mean(axis=1)
+        rate = cfg.eval_freq * cfg.seeds / dt
+        per_step = (train_time / steps_timed) if steps_timed else dt / cfg.eval_freq
+        eta = per_step * (n_chunks - c - 1) * cfg.eval_freq
+        log(
+            f"step {step:>8d}/{cfg.total_steps} | {rate:8.0f} env-steps/s ({rate / cfg.seeds:.0f}/seed) | "
+            f"eval {means.mean():9.2f} ± {means.std():7.2f} over {cfg.seeds} seeds | "
+            f"elapsed {_fmt_time(time.time() - t_start)} | ETA {_fmt_time(eta)}"
+        )
+
+    final_actor = _actor_npz(os.path.join(run_dir, "final_policy.npz"), states.agent.actor)
+    wall = time.time() - t_start
+    timing = {
+        "wall_time_s": wall,
+        "train_time_s_excluding_first_chunk": train_time,
+        "first_chunk_s_including_compile": first_chunk_time,
+        "eval_time_s": eval_time,
+        "env_steps_per_s": (steps_timed * cfg.seeds / train_time) if train_time > 0 else None,
+        "env_steps_per_s_per_seed": (steps_timed / train_time) if train_time > 0 else None,
+        "seeds": cfg.seeds,
+        "total_steps": cfg.total_steps,
+        "resumed_from_chunk": start_chunk if resume else None,
+        "chunk_compiles": chunk_fn._cache_size(),
+        "eval_compiles": eval_fn._cache_size(),
+        "platform": jax.devices()[0].platform,
+    }
+    with open(os.path.join(run_dir, "timing.json"), "w") as f:
+        json.dump(timing, f, indent=2)
+    ckpt.close()
+    return RunResult(run_dir, evals, final_actor, states, chunk_fn, eval_fn, timing)
+
+
+# ------------------------------------------------------------------------------------------------
+# command line
+# ------------------------------------------------------------------------------------------------
+
+def parse_args(argv: list[str]) -> tuple[Config, str | None]:
+    """(config, resume dir or None) from the command line; ConfigError on any problem."""
+    config_name, resume, overrides = None, None, []
+    it = iter(argv)
+    for tok in it:
+        if tok in ("-h", "--help"):
+            raise SystemExit(USAGE)
+        if tok == "--resume":
+            resume = next(it, None)
+            if resume is None:
+                raise ConfigError("--resume needs a run directory")
+        elif tok.startswith("--resume="):
+            resume = tok.split("=", 1)[1]
+        elif tok.startswith("config="):
+            config_name = tok.split("=", 1)[1]
+        elif tok.startswith("resume="):
+            resume = tok.split("=", 1)[1]
+        elif tok.startswith("-") or "=" not in tok:
+            raise ConfigError(f"unexpected argument {tok!r}; expected config=<name>, key=value or --resume <dir>")
+        else:
+            overrides.append(tok)
+    if resume is not None:
+        if config_name is not None or overrides:
+            raise ConfigError("--resume takes no config= or overrides (the run's config.yaml is used)")
+        path = os.path.join(resume, "config.yaml")
+        if not os.path.isfile(path):
+            raise ConfigError(f"cannot resume: {path} not found")
+        with open(path) as f:
+            cfg = cfgmod.from_dict(Config, yaml.safe_load(f) or {})
+        return cfgmod.validate(cfg), resume
+    if config_name is None:
+        raise ConfigError(f"missing config=<name>; valid configs: {', '.join(cfgmod.available_configs())}")
+    return cfgmod.resolve(config_name, overrides), None
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    try:
+        cfg, resume = parse_args(argv)
+    except ConfigError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    run_dir = resume if resume else new_run_dir(cfg)
+    print(f"run dir: {run_dir}", flush=True)
+    try:
+        res = run(cfg, run_dir, resume=resume is not None, log=lambda s: print(s, flush=True))
+    except NonFiniteError as e:
+        print(f"error: {e}", file=sys.stderr, flush=True)
+        return 3
+    t = res.timing
+    rate = t["env_steps_per_s"]
+    print(
+        f"done in {_fmt_time(t['wall_time_s'])}; "
+        f"{'%.0f' % rate if rate else '?'} env-steps/s over {cfg.seeds} seeds; outputs in {run_dir}",
+        flush=True,
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
