@@ -1,0 +1,11 @@
+"""MJX locomotion environments with Gymnasium v4/v5 semantics and the brax ``Env`` API.
+
+Public contract: ``make(env_id, **options)``, ``ENV_IDS``, ``step_autoreset(env, state, action,
+reset_key) -> (next_state, final_obs)``. See docs/ENVS.md.
+"""
+
+from envs.autoreset import step_autoreset
+from envs.base import LocomotionEnv, State
+from envs.registry import ENV_IDS, make
+
+__all__ = ["ENV_IDS", "LocomotionEnv", "State", "make", "step_autoreset"]

@@ -1,0 +1,94 @@
+"""Gymnasium reference recordings and batched teacher forcing (test and benchmark support).
+
+``record(env_id, n_steps, policy, seed)`` runs Gymnasium's own env (MuJoCo C) and records, for
+every step, the physics state *before* the step (qpos, qvel, qacc_warmstart, xpos), the action and
+Gymnasium's outputs (obs, reward, terminated), resetting Gymnasium when an episode terminates.
+``teacher_forced_step(env)`` returns one jitted function that puts every recorded pre-step state
+into our MJX env at once (vmap) and steps it with the recorded actions.
+"""
+
+from __future__ import annotations
+
+from typing import Callable, Dict
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from envs.base import LocomotionEnv, State
+
+Policy = Callable[[np.ndarray, int, np.random.Generator], np.ndarray]
+
+
+def random_policy(obs: np.ndarray, t: int, rng: np.random.Generator, nu: int) -> np.ndarray:
+    """Uniform random action in [-1, 1]^nu."""
+    return rng.uniform(-1.0, 1.0, size=nu)
+
+
+def sine_policy(obs: np.ndarray, t: int, rng: np.random.Generator, nu: int) -> np.ndarray:
+    """Deterministic open-loop gait: a_j = 0.9 sin(2 pi t / 25 + j)."""
+    return 0.9 * np.sin(2.0 * np.pi * t / 25.0 + np.arange(nu))
+
+
+def record(env_id: str, n_steps: int, policy: str = "random", seed: int = 0,
+           max_episode_steps: int = 1000) -> Dict[str, np.ndarray]:
+    """Record ``n_steps`` Gymnasium steps of ``env_id`` under ``policy`` ('random' | 'sine').
+
+    Returns float64 arrays keyed qpos, qvel, qacc_warmstart, xpos (state before each step),
+    action, obs, reward, terminated (Gymnasium's outputs of each step) and t (step in episode).
+    All arrays are copies (never views of MjData memory).
+    """
+    import gymnasium as gym
+
+    pol = {"random": random_policy, "sine": sine_policy}[policy]
+    genv = gym.make(env_id).unwrapped
+    rng = np.random.default_rng(seed)
+    genv.reset(seed=seed)
+    nu = genv.model.nu
+    keys = ("qpos", "qvel", "qacc_warmstart", "xpos", "action", "obs", "reward", "terminated",
+            "t")
+    out = {k: [] for k in keys}
+    t = 0
+    obs = None
+    for _ in range(n_steps):
+        d = genv.data
+        out["qpos"].append(np.array(d.qpos, dtype=np.float64, copy=True))
+        out["qvel"].append(np.array(d.qvel, dtype=np.float64, copy=True))
+        out["qacc_warmstart"].append(np.array(d.qacc_warmstart, dtype=np.float64, copy=True))
+        out["xpos"].append(np.array(d.xpos, dtype=np.float64, copy=True))
+        action = np.asarray(pol(obs, t, rng, nu), dtype=np.float32)
+        obs, reward, terminated, _, _ = genv.step(action)
+        out["action"].append(action.astype(np.float64))
+        out["obs"].append(np.array(obs, dtype=np.float64, copy=True))
+        out["reward"].append(float(reward))
+        out["terminated"].append(bool(terminated))
+        out["t"].append(t)
+        t += 1
+        if terminated or t >= max_episode_steps:
+            genv.reset(seed=int(rng.integers(2**31)))
+            t = 0
+    genv.close()
+    return {k: np.asarray(v) for k, v in out.items()}
+
+
+def teacher_forced_step(env: LocomotionEnv) -> Callable[..., State]:
+    """Jitted ``f(qpos, qvel, qacc_warmstart, xpos, action) -> State`` batched over axis 0.
+
+    Each element starts from a reset state whose physics is replaced by the recorded Gymnasium
+    pre-step state, then takes one ``env.step`` with the recorded action.
+    """
+    template = env.reset(jax.random.PRNGKey(0))
+
+    def one(qpos, qvel, warm, xpos, action):
+        data = template.pipeline_state.replace(qpos=qpos, qvel=qvel, qacc_warmstart=warm,
+                                               xpos=xpos)
+        return env.step(template.replace(pipeline_state=data), action)
+
+    return jax.jit(jax.vmap(one))
+
+
+def run_teacher_forced(env: LocomotionEnv, rec: Dict[str, np.ndarray], fn=None) -> State:
+    """Apply :func:`teacher_forced_step` to every recorded step of ``rec``; returns batched State."""
+    fn = fn or teacher_forced_step(env)
+    cast = lambda k: jnp.asarray(np.array(rec[k]), dtype=env.dtype)
+    return fn(cast("qpos"), cast("qvel"), cast("qacc_warmstart"), cast("xpos"), cast("action"))

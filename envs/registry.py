@@ -1,0 +1,36 @@
+"""Registry of environment ids and the ``make`` factory."""
+
+from __future__ import annotations
+
+from typing import Dict, Type
+
+from envs.ant import AntV5
+from envs.base import OPTION_NAMES, LocomotionEnv
+from envs.half_cheetah import HalfCheetahV5
+from envs.hopper import HopperV4, HopperV5
+from envs.swimmer import SwimmerV5
+from envs.walker2d import Walker2dV4, Walker2dV5
+
+_REGISTRY: Dict[str, Type[LocomotionEnv]] = {
+    cls.env_id: cls
+    for cls in (HopperV5, Walker2dV5, HalfCheetahV5, SwimmerV5, AntV5, HopperV4, Walker2dV4)
+}
+
+ENV_IDS = tuple(_REGISTRY)
+
+
+def make(env_id: str, **options) -> LocomotionEnv:
+    """Build the MJX env ``env_id`` (one of ``ENV_IDS``) with Gymnasium semantics.
+
+    Options (all optional): ``max_episode_steps`` (default 1000; ``None`` = never truncate),
+    ``solver_iterations`` (default 8; ``None`` = the XML's 100), ``ls_iterations`` (default 16;
+    ``None`` = the XML's 50), ``dtype`` (must match JAX x64 mode: float64 iff x64 is enabled).
+    An unknown id or option raises ``ValueError`` with one line naming the valid ones.
+    """
+    if env_id not in _REGISTRY:
+        raise ValueError(f"unknown env id {env_id!r}; valid ids: {', '.join(ENV_IDS)}")
+    unknown = sorted(set(options) - set(OPTION_NAMES))
+    if unknown:
+        raise ValueError(f"unknown option(s) {', '.join(unknown)} for {env_id}; "
+                         f"valid options: {', '.join(OPTION_NAMES)}")
+    return _REGISTRY[env_id](**options)
