@@ -134,13 +134,19 @@ def _swim_parts(x: Array, k: Array, rsqrt: Callable[[Array], Array]):
     return u, s, r, y, negative_tail, positive_tail
 
 
-def make_swim(rsqrt: Callable[[Array], Array] = lax.rsqrt, name: str = "swim") -> Callable:
+def make_swim(
+    rsqrt: Callable[[Array], Array] = lax.rsqrt, name: str = "swim", share_s: bool = False
+) -> Callable:
     """Build a Swim ``f(x, k)`` as a ``jax.custom_jvp`` around the given inverse square root.
 
     The returned function computes f(x) = x/2·(1 + s) with s = kx·r, r = rsqrt(1 + k²x²), and its
     JVP f'(x)·ẋ + ∂f/∂k·k̇ with f'(x) = ½(1 + s(1 + r²)) and ∂f/∂k = ½(s/k)²·r, all sharing r and s.
     In the tails |kx| ≥ c the derivatives take their limits exactly: f' = 0 or 1, ∂f/∂k = 0.
     Zero tangents (e.g. k a constant) are skipped, so no ∂f/∂k work is done when k is fixed.
+
+    ``share_s``: under differentiation, materialise s once (``lax.optimization_barrier``) and derive
+    r² = 1 − s² from it, instead of letting XLA recompute the rsqrt in both the value's and the
+    derivative's fusion (XLA's CPU backend does not fuse siblings into one multi-output loop).
     """
 
     @jax.custom_jvp
@@ -151,14 +157,20 @@ def make_swim(rsqrt: Callable[[Array], Array] = lax.rsqrt, name: str = "swim") -
         x, k = primals
         x_dot, k_dot = tangents
         _, s, r, y, negative_tail, positive_tail = _swim_parts(x, k, rsqrt)
+        if share_s:
+            s = lax.optimization_barrier(s)
+            r2 = jnp.maximum(1 - s * s, 0)  # r² = 1/(1 + u²) = 1 − s²
+        else:
+            r2 = r * r
         tails = negative_tail | positive_tail
         tangent_out = None
         if not isinstance(x_dot, jax.custom_derivatives.SymbolicZero):
-            slope = 0.5 * (1 + s * (1 + r * r))
+            slope = 0.5 * (1 + s * (1 + r2))
             slope = jnp.where(negative_tail, jnp.zeros_like(slope), jnp.where(positive_tail, 1, slope))
             tangent_out = slope * x_dot
         if not isinstance(k_dot, jax.custom_derivatives.SymbolicZero):
             s_over_k = s / k
+            r = jnp.sqrt(r2) if share_s else r
             dk = jnp.where(tails, jnp.zeros_like(s), 0.5 * s_over_k * s_over_k * r)
             tangent_out = dk * k_dot if tangent_out is None else tangent_out + dk * k_dot
         if tangent_out is None:  # both tangents zero: JAX never asks, but stay total
@@ -189,6 +201,7 @@ SWIM_VARIANTS: dict[str, Callable] = {
     "rsqrt": make_swim(lax.rsqrt, "swim_rsqrt"),
     "newton2": make_swim(lambda v: rsqrt_newton(v, 2), "swim_newton2"),
     "newton3": make_swim(lambda v: rsqrt_newton(v, 3), "swim_newton3"),
+    "newton2+shared-s": make_swim(lambda v: rsqrt_newton(v, 2), "swim_newton2_shared_s", share_s=True),
 }
 _swim_kernel = SWIM_VARIANTS["default"]
 

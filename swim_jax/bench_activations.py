@@ -18,7 +18,6 @@ rsqrt:
 from __future__ import annotations
 
 import argparse
-import ctypes
 import datetime as _dt
 import json
 import os
@@ -63,33 +62,70 @@ def _fwd_bwd(f):
     return run
 
 
+def _in_place(fn, n_in: int, n_outputs: int):
+    """jit(fn) of ``n_in`` arguments that writes its ``n_outputs`` results into donated scratch
+    buffers passed after those arguments.
+
+    XLA's CPU runtime maps fresh pages for every new output buffer; at (4096, 4096) float32 that is
+    16,384 page faults per call, most of the call's time. Donating a scratch buffer of the output's
+    shape lets the output reuse it, so this measures the kernel itself.
+    """
+    return jax.jit(
+        lambda *args: fn(*args[:n_in]),
+        donate_argnums=tuple(range(n_in, n_in + n_outputs)),
+        keep_unused=True,
+    )
+
+
 def bench_elementwise(shapes, dtypes, repeats: int) -> list[dict]:
-    """Section (a): median µs per call of jit(f)(x) and jit(fwd+bwd)(x, g), interleaved."""
+    """Section (a): median µs per call, fwd and fwd+bwd, interleaved, in two memory modes.
+
+    ``fresh``: a plain ``jit(f)(x)`` call, which allocates (and page-faults) a new output.
+    ``in-place``: outputs written into donated buffers of the same shape (the kernel's own cost).
+    ``floor (negate)`` is a one-operation kernel: the part of every time that is not activation math.
+    """
     rows = []
+    candidates = {"floor (negate)": jnp.negative, **elementwise_candidates()}
     for dtype_name in dtypes:
         dtype = DTYPES[dtype_name]
         for shape in shapes:
             x = (3 * jax.random.normal(jax.random.key(0), shape, dtype)).block_until_ready()
             g = jnp.ones_like(x)
             cands = {}
-            for name, f in elementwise_candidates().items():
-                fwd, fb = jax.jit(f), jax.jit(_fwd_bwd(f))
-                cands[(name, "fwd")] = lambda fwd=fwd: fwd(x)
-                cands[(name, "fwd+bwd")] = lambda fb=fb: fb(x, g)
-            calls = calls_for(cands[("jax.nn.swish", "fwd")], target_seconds=0.02)
+            for name, f in candidates.items():
+                fb = _fwd_bwd(f)
+                fwd, fwd_bwd = jax.jit(f), jax.jit(fb)
+                fwd_ip, fwd_bwd_ip = _in_place(f, 1, 1), _in_place(fb, 2, 2)
+                scratch = {"fwd": jnp.zeros_like(x), "fwd+bwd": (jnp.zeros_like(x), jnp.zeros_like(x))}
+
+                def run_fwd_ip(fn=fwd_ip, s=scratch):
+                    s["fwd"] = fn(x, s["fwd"])
+                    return s["fwd"]
+
+                def run_fwd_bwd_ip(fn=fwd_bwd_ip, s=scratch):
+                    s["fwd+bwd"] = fn(x, g, *s["fwd+bwd"])
+                    return s["fwd+bwd"]
+
+                cands[(name, "fwd", "fresh")] = lambda fn=fwd: fn(x)
+                cands[(name, "fwd+bwd", "fresh")] = lambda fn=fwd_bwd: fn(x, g)
+                cands[(name, "fwd", "in-place")] = run_fwd_ip
+                cands[(name, "fwd+bwd", "in-place")] = run_fwd_bwd_ip
+            calls = calls_for(cands[("jax.nn.swish", "fwd", "fresh")], target_seconds=0.02)
             timings = time_interleaved(cands, repeats=repeats, calls_per_sample=calls)
-            for (name, pass_), t in timings.items():
-                ref = timings[("jax.nn.swish", pass_)].median
+            for (name, pass_, mode), t in timings.items():
+                ref = timings[("jax.nn.swish", pass_, mode)].median
                 rows.append(
                     {
                         "dtype": dtype_name,
                         "shape": list(shape),
-                        "activation": name,
+                        "mode": mode,
                         "pass": pass_,
+                        "activation": name,
                         **{f"{k}_us": v for k, v in t.as_dict(1e6).items()},
                         "speedup_vs_jax_nn_swish": ref / t.median,
                     }
                 )
+    rows.sort(key=lambda r: (r["dtype"], r["shape"], r["mode"], r["pass"]))
     return rows
 
 
@@ -236,20 +272,6 @@ def write_result(result: dict, out_dir: Path, prefix: str) -> Path:
     return path
 
 
-def reuse_heap_buffers() -> bool:
-    """Ask glibc to keep freed large buffers on the heap (no mmap/munmap per call).
-
-    Without it, every call that allocates a fresh (4096, 4096) output maps new pages and pays a
-    page fault per 4 KiB, which dominates an elementwise kernel of that size. Returns success.
-    """
-    try:
-        libc = ctypes.CDLL("libc.so.6")
-    except OSError:
-        return False
-    m_trim_threshold, m_mmap_threshold = -1, -3
-    return bool(libc.mallopt(m_mmap_threshold, 1 << 30)) and bool(libc.mallopt(m_trim_threshold, 1 << 31))
-
-
 def _print_table(title: str, rows: list[dict], columns: list[str]) -> None:
     print(f"\n{title}")
     widths = [max(len(c), *(len(_fmt(r.get(c))) for r in rows)) for c in columns]
@@ -272,9 +294,6 @@ def _parse(argv, prog: str, description: str, sections: bool):
     p.add_argument("--dtypes", default="float32,float64", help="comma list of float32, float64")
     p.add_argument("--repeats", type=int, default=None, help="timed repeats per candidate (default 21; quick 5)")
     p.add_argument("--out", default="runs/bench", help="folder for the JSON result (default runs/bench)")
-    p.add_argument(
-        "--no-heap-reuse", action="store_true", help="leave glibc's mmap threshold alone (see reuse_heap_buffers)"
-    )
     if sections:
         p.add_argument("--sections", default="a,b,c", help="comma list of a (elementwise), b (actor), c (update)")
     args = p.parse_args(argv)
@@ -301,16 +320,15 @@ def main(argv: list[str]) -> int:
 
 
 def _run_activations(args) -> int:
-    heap_reuse = False if args.no_heap_reuse else reuse_heap_buffers()
     repeats = args.repeats or (5 if args.quick else 21)
-    result = {"machine": machine_info(), "heap_reuse": heap_reuse, "repeats": repeats, "quick": args.quick}
+    result = {"machine": machine_info(), "repeats": repeats, "quick": args.quick}
     if "a" in args.sections:
         shapes = [(256, 256)] if args.quick else [(256, 256), (4096, 4096)]
         result["elementwise"] = rows = bench_elementwise(shapes, args.dtypes, repeats)
         _print_table(
             "(a) elementwise, median µs per call [min–max], speed-up vs jax.nn.swish",
             rows,
-            ["dtype", "shape", "pass", "activation", "median_us", "min_us", "max_us", "speedup_vs_jax_nn_swish"],
+            ["dtype", "shape", "mode", "pass", "activation", "median_us", "min_us", "max_us", "speedup_vs_jax_nn_swish"],
         )
     if "b" in args.sections:
         envs = ["Hopper"] if args.quick else list(ENV_SIZES)
@@ -363,7 +381,6 @@ def rsqrt_accuracy(stride: int = 1) -> dict:
 def main_rsqrt(argv: list[str]) -> int:
     """``python -m swim_jax.bench rsqrt``: accuracy over float32 and elementwise speed."""
     args = _parse(argv, "swim_jax.bench rsqrt", "inverse square root variants", sections=False)
-    heap_reuse = False if args.no_heap_reuse else reuse_heap_buffers()
     repeats = args.repeats or (5 if args.quick else 21)
     errors = rsqrt_accuracy(stride=61 if args.quick else 1)
     shapes = [(256, 256)] if args.quick else [(256, 256), (4096, 4096)]
@@ -387,7 +404,7 @@ def main_rsqrt(argv: list[str]) -> int:
         rows,
         ["shape", "variant", "max_rel_error_f32", "median_us", "min_us", "max_us", "speedup_vs_lax_rsqrt"],
     )
-    path = write_result({"machine": machine_info(), "heap_reuse": heap_reuse, "rows": rows}, Path(args.out), "rsqrt")
+    path = write_result({"machine": machine_info(), "rows": rows}, Path(args.out), "rsqrt")
     print(f"\nwrote {path}")
     return 0
 

@@ -157,7 +157,20 @@ def _first_bad(bad_step: np.ndarray):
 
 def run(cfg: Config, run_dir: str, resume: bool = False, log: Callable[[str], None] = print) -> RunResult:
     """Train all seeds of ``cfg`` writing into ``run_dir`` (created); continue from the newest
-    checkpoint there when ``resume``. Raises NonFiniteError on NaN/inf (no checkpoint written)."""
+    checkpoint there when ``resume``. Raises NonFiniteError on NaN/inf (no checkpoint written).
+
+    Sets ``jax_enable_x64`` for the run (float64 iff ``precision=float64``) and restores the
+    previous value when it returns, so in-process callers (tests) keep their own setting."""
+    import jax
+
+    previous_x64 = bool(jax.config.jax_enable_x64)
+    try:
+        return _run(cfg, run_dir, resume, log)
+    finally:
+        jax.config.update("jax_enable_x64", previous_x64)
+
+
+def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None]) -> RunResult:
     import jax
     import jax.numpy as jnp
 
@@ -186,7 +199,7 @@ def run(cfg: Config, run_dir: str, resume: bool = False, log: Callable[[str], No
     def evaluate(states, j):
         nonlocal eval_time
         t0 = time.time()
-        r = np.asarray(eval_fn(states.agent.actor, states.eval_key, jnp.asarray(j, jnp.int32)))
+        r = np.asarray(eval_fn(states.agent.actor, states.eval_key, jnp.asarray(j, jnp.int32), jnp.asarray(False)))
         eval_time += time.time() - t0
         evals[j] = r
 
@@ -234,7 +247,8 @@ def run(cfg: Config, run_dir: str, resume: bool = False, log: Callable[[str], No
         per_step = (train_time / steps_timed) if steps_timed else dt / cfg.eval_freq
         eta = per_step * (n_chunks - c - 1) * cfg.eval_freq
         log(
-            f"step {step:>8d}/{cfg.total_steps} | {rate:8.0f} env-steps/s ({rate / cfg.seeds:.0f}/seed) | "
+            f"step {step:>8d}/{cfg.total_steps} | {rate:8.0f} env-steps/s ({rate / cfg.seeds:.0f}/seed"
+            f"{', incl. compile' if c == start_chunk else ''}) | "
             f"eval {means.mean():9.2f} ± {means.std():7.2f} over {cfg.seeds} seeds | "
             f"elapsed {_fmt_time(time.time() - t_start)} | ETA {_fmt_time(eta)}"
         )
