@@ -77,7 +77,7 @@ def _in_place(fn, n_in: int, n_outputs: int):
     )
 
 
-def bench_elementwise(shapes, dtypes, repeats: int) -> list[dict]:
+def bench_elementwise(shapes, dtypes, repeats: int, clock: str = "wall") -> list[dict]:
     """Section (a): median µs per call, fwd and fwd+bwd, interleaved, in two memory modes.
 
     ``fresh``: a plain ``jit(f)(x)`` call, which allocates (and page-faults) a new output.
@@ -111,7 +111,7 @@ def bench_elementwise(shapes, dtypes, repeats: int) -> list[dict]:
                 cands[(name, "fwd", "in-place")] = run_fwd_ip
                 cands[(name, "fwd+bwd", "in-place")] = run_fwd_bwd_ip
             calls = calls_for(cands[("jax.nn.swish", "fwd", "fresh")], target_seconds=0.02)
-            timings = time_interleaved(cands, repeats=repeats, calls_per_sample=calls)
+            timings = time_interleaved(cands, repeats=repeats, calls_per_sample=calls, clock=clock)
             for (name, pass_, mode), t in timings.items():
                 ref = timings[("jax.nn.swish", pass_, mode)].median
                 rows.append(
@@ -144,7 +144,7 @@ def _actor_forward(activation: str, obs_dim: int, act_dim: int, dtype):
     return jax.jit(agent.act), params
 
 
-def bench_actor_inference(envs, dtypes, calls: int, activations=("swish", "swim", "relu")) -> list[dict]:
+def bench_actor_inference(envs, dtypes, calls: int, activations=("swish", "swim", "relu"), clock: str = "wall") -> list[dict]:
     """Section (b), Table III: each of the first ``calls`` calls after compilation timed alone."""
     rows = []
     for dtype_name in dtypes:
@@ -156,7 +156,7 @@ def bench_actor_inference(envs, dtypes, calls: int, activations=("swish", "swim"
             for act in activations:
                 fn, params = _actor_forward(act, obs_dim, act_dim, dtype)
                 cands[act] = lambda fn=fn, params=params: fn(params, obs)
-            timings = time_interleaved(cands, repeats=calls, calls_per_sample=1, warmup=1)
+            timings = time_interleaved(cands, repeats=calls, calls_per_sample=1, warmup=1, clock=clock)
             swim_t, swish_t = timings["swim"], timings["swish"]
             for act, t in timings.items():
                 rows.append(
@@ -208,7 +208,9 @@ def _update_program(activation: str, dtype, obs_dim=17, act_dim=6, updates=10):
     return run, state
 
 
-def bench_td3_update(dtypes, repeats: int, activations=("relu", "swish", "swim", "hard_swish", "mish"), updates=10):
+def bench_td3_update(
+    dtypes, repeats: int, activations=("relu", "swish", "swim", "hard_swish", "mish"), updates=10, clock: str = "wall"
+):
     """Section (c): ms per TD3 update (critic every update, actor every 2nd), median over repeats."""
     rows = []
     for dtype_name in dtypes:
@@ -218,7 +220,7 @@ def bench_td3_update(dtypes, repeats: int, activations=("relu", "swish", "swim",
             run, state = _update_program(act, dtype, updates=updates)
             key = jax.random.key(3)
             cands[act] = lambda run=run, state=state, key=key: run(state, key)
-        timings = time_interleaved(cands, repeats=repeats, calls_per_sample=1)
+        timings = time_interleaved(cands, repeats=repeats, calls_per_sample=1, clock=clock)
         for act, t in timings.items():
             per_update = {f"{k}_ms": v / updates for k, v in t.as_dict().items()}
             rows.append(
@@ -293,6 +295,12 @@ def _parse(argv, prog: str, description: str, sections: bool):
     p.add_argument("--quick", action="store_true", help="small sizes and few repeats (a smoke run, ~1 min)")
     p.add_argument("--dtypes", default="float32,float64", help="comma list of float32, float64")
     p.add_argument("--repeats", type=int, default=None, help="timed repeats per candidate (default 21; quick 5)")
+    p.add_argument(
+        "--clock",
+        default="wall",
+        choices=["wall", "cpu"],
+        help="wall: elapsed time (default); cpu: this process's CPU time, for a machine shared with other jobs",
+    )
     p.add_argument("--out", default="runs/bench", help="folder for the JSON result (default runs/bench)")
     if sections:
         p.add_argument("--sections", default="a,b,c", help="comma list of a (elementwise), b (actor), c (update)")
@@ -321,10 +329,10 @@ def main(argv: list[str]) -> int:
 
 def _run_activations(args) -> int:
     repeats = args.repeats or (5 if args.quick else 21)
-    result = {"machine": machine_info(), "repeats": repeats, "quick": args.quick}
+    result = {"machine": machine_info(), "repeats": repeats, "quick": args.quick, "clock": args.clock}
     if "a" in args.sections:
         shapes = [(256, 256)] if args.quick else [(256, 256), (4096, 4096)]
-        result["elementwise"] = rows = bench_elementwise(shapes, args.dtypes, repeats)
+        result["elementwise"] = rows = bench_elementwise(shapes, args.dtypes, repeats, args.clock)
         _print_table(
             "(a) elementwise, median µs per call [min–max], speed-up vs jax.nn.swish",
             rows,
@@ -333,7 +341,7 @@ def _run_activations(args) -> int:
     if "b" in args.sections:
         envs = ["Hopper"] if args.quick else list(ENV_SIZES)
         calls = 20 if args.quick else 100
-        result["actor_inference"] = rows = bench_actor_inference(envs, args.dtypes, calls)
+        result["actor_inference"] = rows = bench_actor_inference(envs, args.dtypes, calls, clock=args.clock)
         _print_table(
             f"(b) Table III protocol: actor forward on 256 states, first {calls} calls, ms",
             rows,
@@ -341,7 +349,7 @@ def _run_activations(args) -> int:
         )
     if "c" in args.sections:
         acts = ("relu", "swish", "swim") if args.quick else ("relu", "swish", "swim", "hard_swish", "mish")
-        result["td3_update"] = rows = bench_td3_update(args.dtypes, repeats, activations=acts)
+        result["td3_update"] = rows = bench_td3_update(args.dtypes, repeats, activations=acts, clock=args.clock)
         _print_table(
             "(c) one TD3 update (256-256, batch 256; actor every 2nd), ms per update",
             rows,
@@ -388,7 +396,9 @@ def main_rsqrt(argv: list[str]) -> int:
     for shape in shapes:
         v = (1 + jax.random.uniform(jax.random.key(0), shape, jnp.float32, 0, 100)).block_until_ready()
         cands = {name: (lambda f=jax.jit(fn): f(v)) for name, fn in rsqrt_variants().items()}
-        timings = time_interleaved(cands, repeats=repeats, calls_per_sample=calls_for(cands["lax.rsqrt"]))
+        timings = time_interleaved(
+            cands, repeats=repeats, calls_per_sample=calls_for(cands["lax.rsqrt"]), clock=args.clock
+        )
         for name, t in timings.items():
             rows.append(
                 {
