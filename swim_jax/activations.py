@@ -24,6 +24,7 @@ per-layer weight.
 
 from __future__ import annotations
 
+import contextlib
 import math
 from dataclasses import dataclass
 from functools import partial
@@ -44,6 +45,7 @@ __all__ = [
     "rsqrt_newton",
     "rsqrt_default",
     "SWIM_VARIANTS",
+    "use_swim_variant",
     "swish",
     "relu",
     "hard_swish",
@@ -204,6 +206,23 @@ SWIM_VARIANTS: dict[str, Callable] = {
     "newton2+shared-s": make_swim(lambda v: rsqrt_newton(v, 2), "swim_newton2_shared_s", share_s=True),
 }
 _swim_kernel = SWIM_VARIANTS["default"]
+
+
+@contextlib.contextmanager
+def use_swim_variant(variant: str):
+    """Within the block, ``swim`` (and so every network tracing it) uses ``SWIM_VARIANTS[variant]``.
+
+    For benchmarks that compare kernels inside whole programs: trace/compile the program inside
+    the block. Unknown variants raise ValueError naming the valid ones.
+    """
+    global _swim_kernel
+    if variant not in SWIM_VARIANTS:
+        raise ValueError(f"unknown Swim variant {variant!r}; valid: {', '.join(SWIM_VARIANTS)}")
+    previous, _swim_kernel = _swim_kernel, SWIM_VARIANTS[variant]
+    try:
+        yield
+    finally:
+        _swim_kernel = previous
 
 
 def swim(x: Array, k=0.5) -> Array:

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from jax.test_util import check_grads
 
+from swim_jax.activations import use_swim_variant as A_use_variant
 from swim_jax.activations import (
     ACTIVATIONS,
     SWIM_VARIANTS,
@@ -355,3 +356,15 @@ def test_flax_module_fixed_and_learnable_k():
         Activation(kind="relu", learnable=True).init(jax.random.key(0), x)
     with pytest.raises(ValueError, match="needs kind="):
         Activation().init(jax.random.key(0), x)
+
+
+def test_use_swim_variant_swaps_the_kernel_inside_traced_programs():
+    x = jnp.asarray([0.3, -2.0])
+    with A_use_variant("rsqrt"):
+        traced = jax.make_jaxpr(lambda v: swim(v, K))(x)
+    assert "= rsqrt " in str(traced) and "rsqrt_newton" not in str(traced)
+    default = str(jax.make_jaxpr(lambda v: swim(v, K))(x))
+    assert "rsqrt_newton" in default and "= rsqrt " not in default  # default f32 kernel: Newton
+    with pytest.raises(ValueError, match="unknown Swim variant 'fast'; valid: default, rsqrt"):
+        with A_use_variant("fast"):
+            pass
