@@ -150,18 +150,19 @@ def make_chunk_fn(agent: TD3, env, learning_starts: int, num_steps: int):
     return chunk
 
 
-def make_eval_fn(agent: TD3, env, episodes: int, max_steps: int, random_policy: bool = False):
-    """``evaluate(actor_params[S], eval_keys[S], eval_index) -> returns[S, episodes]``.
+def make_eval_fn(agent: TD3, env, episodes: int, max_steps: int):
+    """``evaluate(actor_params[S], eval_keys[S], eval_index, random_policy) -> returns[S, episodes]``.
 
     Episode e of seed s starts from ``env.reset(split(fold_in(eval_key_s, eval_index), episodes)[e])``;
-    actions are μ_s(obs) (or U(low, high) from the same keys when ``random_policy``). All S×episodes
-    envs step together until every one is done (or ``max_steps``); return = Σ rewards up to and
-    including each episode's terminal step. Returns float per episode."""
+    actions are μ_s(obs), or U(low, high) when the (traced, bool) ``random_policy`` is true, the
+    uniform baseline through the same compiled program. All S×episodes envs step together until
+    every one is done (or ``max_steps``); an episode's return sums its rewards up to and including
+    its terminal step (later rewards are masked, also if non-finite)."""
 
-    def evaluate(actor_params, eval_keys: Array, eval_index: Array) -> Array:
+    def evaluate(actor_params, eval_keys: Array, eval_index: Array, random_policy=False) -> Array:
         keys = jax.vmap(lambda k: jax.random.split(jax.random.fold_in(k, eval_index), episodes))(eval_keys)
-        reset_keys, act_keys = keys, jax.vmap(jax.vmap(lambda k: jax.random.fold_in(k, 1)))(keys)
-        states = jax.vmap(jax.vmap(env.reset))(reset_keys)
+        act_keys = jax.vmap(jax.vmap(lambda k: jax.random.fold_in(k, 1)))(keys)
+        states = jax.vmap(jax.vmap(env.reset))(keys)
         S = eval_keys.shape[0]
         dt = states.reward.dtype
         init = (jnp.zeros((), jnp.int32), states, jnp.zeros((S, episodes), jnp.bool_),
@@ -173,12 +174,11 @@ def make_eval_fn(agent: TD3, env, episodes: int, max_steps: int, random_policy: 
 
         def body(c):
             t, st, done, ret, ak = c
-            if random_policy:
-                split = jax.vmap(jax.vmap(jax.random.split))(ak)
-                ak, sub = split[:, :, 0], split[:, :, 1]
-                a = jax.vmap(jax.vmap(agent.random_action))(sub)
-            else:
-                a = jax.vmap(agent.act)(actor_params, st.obs)
+            split = jax.vmap(jax.vmap(jax.random.split))(ak)
+            ak, sub = split[:, :, 0], split[:, :, 1]
+            a_rand = jax.vmap(jax.vmap(agent.random_action))(sub)
+            a_pol = jax.vmap(agent.act)(actor_params, st.obs)
+            a = jnp.where(random_policy, a_rand, a_pol)
             st = jax.vmap(jax.vmap(env.step))(st, a)
             ret = ret + jnp.where(done, jnp.zeros_like(st.reward), st.reward)
             done = done | (st.done > 0)

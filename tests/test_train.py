@@ -1,0 +1,240 @@
+"""The training program end to end on a tiny Hopper-v5 config (real envs, real TD3, small nets).
+
+Compiles are the cost here, so one vmapped 2-seed run (module fixture) serves several tests; a
+single-seed run checks seed independence; the resume test runs the CLI in subprocesses that share a
+persistent compilation cache.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from swim_jax import config as cfgmod
+from swim_jax import train
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+TINY = [
+    "seeds=2",
+    "total_steps=4000",
+    "eval_freq=1000",
+    "learning_starts=1000",
+    "eval_episodes=5",
+    "replay_size=10000",
+    "agent.hidden=[64,64]",
+    "agent.batch_size=64",
+]
+CONFIG = "hopper_relu"
+
+
+def tiny(*extra: str) -> cfgmod.Config:
+    return cfgmod.resolve(CONFIG, TINY + list(extra))
+
+
+class CompileCounter:
+    """Counts XLA backend compilations (jax.monitoring events) while ``active``."""
+
+    def __init__(self):
+        self.active = False
+        self.events: list[str] = []
+        jax.monitoring.register_event_duration_secs_listener(self._on_event)
+
+    def _on_event(self, event: str, duration: float, **kwargs) -> None:
+        if self.active and event == "/jax/core/compile/backend_compile_duration":
+            self.events.append(event)
+
+
+@pytest.fixture(scope="module")
+def vmapped(tmp_path_factory):
+    """2 seeds, 4 chunks; compile events counted from the end of the first chunk on."""
+    counter = CompileCounter()
+    lines: list[str] = []
+
+    def log(line: str) -> None:
+        lines.append(line)
+        counter.active = True  # first chunk (and its evaluation + checkpoint) done
+
+    t0 = time.time()
+    res = train.run(tiny(), str(tmp_path_factory.mktemp("vmapped") / "run"), log=log)
+    counter.active = False
+    res.wall = time.time() - t0
+    res.lines = lines
+    res.late_compiles = list(counter.events)
+    return res
+
+
+def test_outputs_and_progress_lines(vmapped):
+    d = vmapped.run_dir
+    for f in ["config.yaml", "evaluations.csv", "evaluations.npy", "evaluations_episodes.npy",
+              "evaluations_seed0.npy", "evaluations_seed1.npy", "timing.json", "final_policy.npz"]:
+        assert os.path.isfile(os.path.join(d, f)), f
+    ev = np.load(os.path.join(d, "evaluations.npy"))
+    assert ev.shape == (5, 2) and np.all(np.isfinite(ev))  # step 0 + one per chunk
+    np.testing.assert_array_equal(ev, vmapped.evaluations.mean(axis=2))
+    np.testing.assert_array_equal(np.load(os.path.join(d, "evaluations_seed1.npy")), ev[:, 1])
+    csv = open(os.path.join(d, "evaluations.csv")).read().splitlines()
+    assert csv[0] == "step,seed_0,seed_1,mean,std" and csv[-1].startswith("4000,")
+    assert len(vmapped.lines) == 4 and all("env-steps/s" in l and "ETA" in l and "±" in l for l in vmapped.lines)
+    # keep_checkpoints=3 of the 4 chunk checkpoints
+    assert sorted(os.listdir(os.path.join(d, "checkpoints"))) == ["2000", "3000", "4000"]
+    # the resolved config round-trips
+    assert train.parse_args(["--resume", d])[0] == tiny()
+
+
+def test_no_recompilation_after_first_chunk(vmapped):
+    assert vmapped.late_compiles == []
+    assert vmapped.chunk_fn._cache_size() == 1
+    assert vmapped.eval_fn._cache_size() == 1
+    assert vmapped.timing["chunk_compiles"] == 1
+
+
+def test_tiny_run_beats_random_policy_on_every_seed(vmapped):
+    """Final deterministic-policy return > the uniform-random policy's mean return, per seed
+    (random baseline from the same compiled evaluation with the same keys, 5 episodes × 4 indices)."""
+    st = vmapped.states
+    rand = np.concatenate([
+        np.asarray(vmapped.eval_fn(st.agent.actor, st.eval_key, jnp.int32(j), jnp.asarray(True)))
+        for j in range(4)
+    ], axis=1)  # [seeds, 20]
+    final = vmapped.evaluations[-1].mean(axis=1)
+    print("random per seed", rand.mean(1), "initial", vmapped.evaluations[0].mean(1), "final", final)
+    assert np.all(final > rand.mean(axis=1) + 3 * rand.std(axis=1) / np.sqrt(rand.shape[1]))
+    assert np.all(final > vmapped.evaluations[0].mean(axis=1))
+
+
+def test_different_seeds_differ(vmapped):
+    ev = vmapped.evaluations
+    assert not np.array_equal(ev[:, 0], ev[:, 1])
+    k = vmapped.final_actor["params/body/dense_0/kernel"]
+    assert not np.allclose(k[0], k[1])
+
+
+def test_transitions_truncation_bootstraps_termination_does_not(vmapped):
+    """In the real buffer: terminated ∈ {0,1}; Hopper episodes that fell are stored terminated=1;
+    stored next_obs of a terminal step is the true final obs (not a reset obs near qpos0)."""
+    buf = jax.tree.map(np.asarray, vmapped.states.buffer)
+    assert np.all(buf.size == 4000) and np.all(buf.ptr == 4000)
+    data = jax.tree.map(lambda x: x[:, :4000].reshape(-1, *x.shape[2:]), buf.data)
+    term = data.terminated
+    assert set(np.unique(term)) <= {0.0, 1.0} and term.sum() > 0
+    # a fallen Hopper: height qpos[1] = obs[0] ≤ 0.7 or |angle| = |obs[1]| ≥ 0.2 or big values
+    fin = data.next_obs[term == 1]
+    unhealthy = (fin[:, 0] <= 0.7) | (np.abs(fin[:, 1]) >= 0.2) | np.any(np.abs(fin[:, 1:]) >= 100, axis=1)
+    assert np.all(unhealthy)
+    ok = data.next_obs[term == 0]
+    assert np.mean((ok[:, 0] > 0.7) & (np.abs(ok[:, 1]) < 0.2)) == 1.0
+
+
+def test_single_seed_equals_its_slot_in_the_vmapped_run(vmapped, tmp_path):
+    res = train.run(tiny("seeds=1", "first_seed=1"), str(tmp_path / "single"), log=lambda s: None)
+    np.testing.assert_array_equal(res.evaluations[:, 0], vmapped.evaluations[:, 1])
+    for k, v in res.final_actor.items():
+        np.testing.assert_array_equal(v[0], vmapped.final_actor[k][1], err_msg=k)
+
+
+def test_nan_detection_names_seed_step_and_quantity(vmapped):
+    """Poison seed 1's critic in the real compiled chunk: the first bad step is the first update."""
+    from agents.loop import CHECKED
+
+    st = jax.tree.map(jnp.copy, vmapped.states)
+    critic = jax.tree.map(lambda x: x.at[1].set(jnp.nan) if x.ndim else x, st.agent.critic)
+    st = st._replace(agent=st.agent._replace(critic=critic))
+    out = vmapped.chunk_fn(st, jnp.int32(4000))
+    hit = train._first_bad(np.asarray(out.bad_step))
+    assert hit == (1, 4000, "critic_loss")
+    assert np.all(np.asarray(out.bad_step)[0] == -1)
+    assert CHECKED[0] == "critic_loss"
+
+
+# ------------------------------------------------------------------------------------------------
+# CLI
+# ------------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize(
+    "argv, needle",
+    [
+        (["config=nope"], "valid configs: ant_relu"),
+        (["config=walker_swim", "agent.foo=1"], "valid keys under agent:"),
+        (["config=walker_swim", "seeds=two"], "seeds: expected int"),
+        (["config=walker_swim", "env.id=Pong-v5"], "valid: Hopper-v5"),
+        (["config=walker_swim", "agent.activation.name=gelu"], "valid: hard_swish, mish, relu, swim, swish"),
+        (["config=walker_swim", "precision=float16"], "valid: float32, float64"),
+        (["config=walker_swim", "total_steps=12345"], "multiple of eval_freq"),
+        (["config=walker_swim", "bogus"], "expected config=<name>"),
+        ([], "valid configs:"),
+    ],
+)
+def test_cli_errors_one_line_exit_2_nothing_written(argv, needle, tmp_path, capsys):
+    rc = train.main(argv + [f"out_dir={tmp_path}/out"] if argv and argv[0].startswith("config=walker") else argv)
+    err = capsys.readouterr().err
+    assert rc == 2
+    assert err.startswith("error: ") and err.count("\n") == 1 and needle in err, err
+    assert not os.path.exists(tmp_path / "out")
+
+
+def test_cli_error_exit_status_in_a_real_process(tmp_path):
+    p = subprocess.run([sys.executable, "-m", "swim_jax.train", "config=walker_swim", "agent.activation.k=-1",
+                        f"out_dir={tmp_path}/out"], cwd=REPO, capture_output=True, text=True, timeout=120)
+    assert p.returncode == 2
+    assert p.stderr.strip().splitlines()[-1].startswith("error: ") and "must be finite and > 0" in p.stderr
+    assert not os.path.exists(tmp_path / "out")
+
+
+def test_config_files_and_overrides_resolve():
+    names = cfgmod.available_configs()
+    for env in ["walker", "hopper", "cheetah", "swimmer", "ant"]:
+        for act in ["swim", "swish", "relu"]:
+            assert f"{env}_{act}" in names
+    c = cfgmod.resolve("walker_swim", ["seeds=5", "total_steps=200000", "agent.activation.k=0.75",
+                                       "precision=float64", "env.id=Hopper-v5"])
+    assert (c.seeds, c.total_steps, c.agent.activation.k, c.precision, c.env.id) == (5, 200000, 0.75, "float64", "Hopper-v5")
+    assert c.agent.activation.name == "swim" and c.name == "walker_swim"
+    d = cfgmod.resolve("cheetah_relu", [])
+    # the reference protocol defaults
+    a = d.agent
+    assert (a.hidden, a.actor_lr, a.critic_lr, a.batch_size, a.discount, a.tau, a.policy_noise, a.noise_clip,
+            a.expl_noise, a.policy_freq) == ((256, 256), 3e-4, 3e-4, 256, 0.99, 0.005, 0.2, 0.5, 0.1, 2)
+    assert (d.learning_starts, d.eval_freq, d.eval_episodes, d.replay_size, d.total_steps, d.seeds) == (
+        25000, 5000, 10, 1_000_000, 1_000_000, 5)
+    assert d.env.id == "HalfCheetah-v5" and d.agent.activation.name == "relu"
+
+
+# ------------------------------------------------------------------------------------------------
+# resume after SIGKILL
+# ------------------------------------------------------------------------------------------------
+
+def test_resume_after_sigkill_matches_uninterrupted_run(vmapped, tmp_path):
+    env = dict(os.environ, JAX_COMPILATION_CACHE_DIR=str(tmp_path / "jax_cache"),
+               JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS="0", PYTHONUNBUFFERED="1")
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "swim_jax.train", f"config={CONFIG}", *TINY, f"out_dir={out}"]
+    p = subprocess.Popen(cmd, cwd=REPO, env=env, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    run_dir = None
+    try:
+        for line in p.stdout:
+            if line.startswith("run dir: "):
+                run_dir = line.split(": ", 1)[1].strip()
+            if line.startswith("step ") and " 1000/" in line.split("|")[0]:
+                p.send_signal(signal.SIGKILL)  # mid-run: after the first checkpoint
+                break
+    finally:
+        p.wait(timeout=600)
+    assert p.returncode == -signal.SIGKILL and run_dir
+    assert not os.path.exists(os.path.join(run_dir, "final_policy.npz"))
+    r = subprocess.run([sys.executable, "-m", "swim_jax.train", "--resume", run_dir], cwd=REPO, env=env,
+                       capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert "resumed" in r.stdout
+    ev = np.load(os.path.join(run_dir, "evaluations_episodes.npy"))
+    np.testing.assert_array_equal(ev, vmapped.evaluations)
+    got = np.load(os.path.join(run_dir, "final_policy.npz"))
+    for k, v in vmapped.final_actor.items():
+        np.testing.assert_array_equal(got[k], v, err_msg=k)
