@@ -1,0 +1,278 @@
+"""Read ``swim_jax.train`` run folders and group them into (env, activation) comparisons.
+
+A run folder holds ``config.yaml`` (the resolved config) and ``evaluations.npy`` (``[n_evals, seeds]``
+mean evaluation returns; evaluation ``i`` is at step ``i · eval_freq``). See ``swim_jax/train.py``.
+
+Grouping policy (documented in the report too):
+
+* one group per ``env.id``; inside it one curve set per activation label (the activation name, plus
+  its parameter when it differs from the paper's default: ``swim(k=0.75)``, ``swish(beta=2)``);
+* several run folders with the same (env, activation label) are pooled as more seeds. They must agree
+  on every config key except ``seeds``, ``first_seed``, ``seed``, ``name``, ``out_dir`` and
+  ``keep_checkpoints``, and must not share a seed (same base ``seed`` and seed index) — else refused;
+* all runs of one env must have the same ``total_steps`` and ``eval_freq``; runs that differ are
+  refused with a message naming two conflicting runs (no alignment on common steps: a curve at a
+  different budget is a different experiment). Other config differences between activations of one
+  env (network size, precision, ...) are allowed but listed as warnings in the report;
+* an incomplete run (fewer evaluations than ``1 + total_steps/eval_freq``, e.g. still training) is
+  refused unless ``allow_incomplete``, in which case every run of that env is truncated to the
+  evaluations all of them have, and the report says so.
+
+Every problem raises :class:`RunError` with a one-line message.
+"""
+
+from __future__ import annotations
+
+
+import os
+from dataclasses import dataclass, field
+
+import numpy as np
+import yaml
+
+POOL_IGNORED_KEYS = frozenset({"seeds", "first_seed", "seed", "name", "out_dir", "keep_checkpoints"})
+DEFAULT_PARAMS = {"swim": ("k", 0.5), "swish": ("beta", 1.0)}
+
+
+class RunError(ValueError):
+    """A missing, corrupt or incompatible run folder; ``str(e)`` is one line."""
+
+
+@dataclass
+class Run:
+    """One run folder: its config and its ``[n_evals, seeds]`` evaluation returns."""
+
+    path: str
+    config: dict
+    env: str
+    activation: str  # label, see activation_label
+    total_steps: int
+    eval_freq: int
+    seed_ids: list  # (base seed, seed index) per column
+    returns: np.ndarray  # [n_evals, seeds]
+
+    @property
+    def expected_evals(self) -> int:
+        return 1 + self.total_steps // self.eval_freq
+
+    @property
+    def complete(self) -> bool:
+        return self.returns.shape[0] == self.expected_evals
+
+
+@dataclass
+class Curves:
+    """Pooled curves of one (env, activation): ``returns[n_evals, n_seeds]`` at ``steps``."""
+
+    env: str
+    activation: str
+    steps: np.ndarray
+    returns: np.ndarray
+    runs: list = field(default_factory=list)  # paths
+
+    @property
+    def n_seeds(self) -> int:
+        return int(self.returns.shape[1])
+
+
+@dataclass
+class EnvGroup:
+    """All activations of one env, on a common evaluation grid."""
+
+    env: str
+    total_steps: int
+    eval_freq: int
+    curves: dict  # activation label -> Curves
+    truncated_to_step: int | None = None  # set when incomplete runs were truncated
+    warnings: list = field(default_factory=list)
+
+    @property
+    def steps(self) -> np.ndarray:
+        return next(iter(self.curves.values())).steps
+
+
+def activation_label(act: dict) -> str:
+    """``name``, with the parameter appended when not the paper's default (``swim(k=0.75)``) and
+    ``+learnable`` for learnable parameters."""
+    name = str(act.get("name"))
+    label = name
+    if name in DEFAULT_PARAMS:
+        key, default = DEFAULT_PARAMS[name]
+        val = act.get(key, default)
+        if val is not None and float(val) != default:
+            label = f"{name}({key}={float(val):g})"
+    if act.get("learnable"):
+        label += "+learnable"
+    return label
+
+
+def load_run(path: str) -> Run:
+    """Read and validate one run folder; raise :class:`RunError` (one line) if missing or corrupt."""
+    if not os.path.isdir(path):
+        raise RunError(f"{path}: not a directory")
+    cfg_path = os.path.join(path, "config.yaml")
+    ev_path = os.path.join(path, "evaluations.npy")
+    for p in (cfg_path, ev_path):
+        if not os.path.isfile(p):
+            raise RunError(f"{path}: missing {os.path.basename(p)} (not a swim_jax.train run folder?)")
+    try:
+        with open(cfg_path) as f:
+            cfg = yaml.safe_load(f)
+    except (yaml.YAMLError, OSError, UnicodeDecodeError) as e:
+        raise RunError(f"{cfg_path}: unreadable YAML ({_one_line(e)})") from None
+    if not isinstance(cfg, dict):
+        raise RunError(f"{cfg_path}: expected a mapping, got {type(cfg).__name__}")
+    try:
+        env = cfg["env"]["id"]
+        act = cfg["agent"]["activation"]
+        if not isinstance(act, dict) or "name" not in act:
+            raise KeyError("agent.activation.name")
+        total_steps = _pos_int(cfg["total_steps"], "total_steps")
+        eval_freq = _pos_int(cfg["eval_freq"], "eval_freq")
+        seeds = _pos_int(cfg["seeds"], "seeds")
+        first_seed = int(cfg.get("first_seed", 0))
+        base_seed = int(cfg.get("seed", 0))
+    except (KeyError, TypeError, ValueError) as e:
+        raise RunError(f"{cfg_path}: missing or invalid key {_one_line(e)}") from None
+    if not isinstance(env, str):
+        raise RunError(f"{cfg_path}: env.id must be a string")
+    try:
+        returns = np.load(ev_path, allow_pickle=False)
+    except (ValueError, OSError, EOFError) as e:
+        raise RunError(f"{ev_path}: unreadable .npy ({_one_line(e)})") from None
+    expected = 1 + total_steps // eval_freq
+    if returns.ndim != 2 or returns.shape[1] != seeds or not 1 <= returns.shape[0] <= expected:
+        raise RunError(f"{ev_path}: shape {returns.shape} does not match config.yaml "
+                       f"(expected [<= {expected} evaluations, {seeds} seeds])")
+    if not np.issubdtype(returns.dtype, np.number) or not np.all(np.isfinite(returns)):
+        raise RunError(f"{ev_path}: non-numeric or non-finite returns")
+    return Run(
+        path=path, config=cfg, env=env, activation=activation_label(act), total_steps=total_steps,
+        eval_freq=eval_freq, seed_ids=[(base_seed, first_seed + i) for i in range(seeds)],
+        returns=returns.astype(np.float64),
+    )
+
+
+def group_runs(runs: list[Run], allow_incomplete: bool = False) -> dict[str, EnvGroup]:
+    """Group runs into ``{env: EnvGroup}`` following the module's policy; raise :class:`RunError`."""
+    by_env: dict[str, list[Run]] = {}
+    for r in runs:
+        by_env.setdefault(r.env, []).append(r)
+    groups = {}
+    for env in sorted(by_env):
+        env_runs = by_env[env]
+        first = env_runs[0]
+        for r in env_runs[1:]:
+            if (r.total_steps, r.eval_freq) != (first.total_steps, first.eval_freq):
+                raise RunError(
+                    f"{env}: runs differ in budget and cannot be compared: {first.path} has "
+                    f"total_steps={first.total_steps} eval_freq={first.eval_freq}, {r.path} has "
+                    f"total_steps={r.total_steps} eval_freq={r.eval_freq}; report them separately")
+        n_common = min(r.returns.shape[0] for r in env_runs)
+        truncated = None
+        incomplete = [r for r in env_runs if not r.complete]
+        if incomplete:
+            r = incomplete[0]
+            if not allow_incomplete:
+                raise RunError(f"{r.path}: incomplete run ({r.returns.shape[0]} of {r.expected_evals} "
+                               f"evaluations); pass --allow-incomplete to truncate {env} to common steps")
+            truncated = (n_common - 1) * first.eval_freq
+        by_act: dict[str, list[Run]] = {}
+        for r in env_runs:
+            by_act.setdefault(r.activation, []).append(r)
+        curves = {}
+        for act in sorted(by_act, key=_act_order):
+            curves[act] = _pool(env, act, by_act[act], n_common, first.eval_freq)
+        g = EnvGroup(env, first.total_steps, first.eval_freq, curves, truncated)
+        g.warnings = _cross_activation_differences(by_act)
+        groups[env] = g
+    return groups
+
+
+def load_and_group(paths: list[str], allow_incomplete: bool = False) -> dict[str, EnvGroup]:
+    """:func:`load_run` on every path (duplicates refused), then :func:`group_runs`."""
+    seen = {}
+    for p in paths:
+        key = os.path.realpath(p)
+        if key in seen:
+            raise RunError(f"{p}: given twice (also as {seen[key]})")
+        seen[key] = p
+    return group_runs([load_run(p) for p in paths], allow_incomplete=allow_incomplete)
+
+
+def _pool(env: str, act: str, runs: list[Run], n: int, eval_freq: int) -> Curves:
+    ref = _flat(runs[0].config, POOL_IGNORED_KEYS)
+    owner = {}
+    for r in runs:
+        diff = _dict_diff(ref, _flat(r.config, POOL_IGNORED_KEYS))
+        if diff:
+            k = diff[0]
+            raise RunError(f"{env}/{act}: cannot pool {runs[0].path} and {r.path} as seeds of one "
+                           f"experiment: they differ in {k} ({ref.get(k)!r} vs "
+                           f"{_flat(r.config, POOL_IGNORED_KEYS).get(k)!r})")
+        for sid in r.seed_ids:
+            if sid in owner:
+                raise RunError(f"{env}/{act}: {owner[sid]} and {r.path} both contain seed index {sid[1]} "
+                               f"of base seed {sid[0]} (the same seed would be counted twice)")
+            owner[sid] = r.path
+    returns = np.concatenate([r.returns[:n] for r in runs], axis=1)
+    steps = np.arange(n, dtype=np.int64) * eval_freq
+    return Curves(env, act, steps, returns, [r.path for r in runs])
+
+
+def _cross_activation_differences(by_act: dict[str, list[Run]]) -> list[str]:
+    ignored = POOL_IGNORED_KEYS | {"agent.activation"}
+    acts = sorted(by_act, key=_act_order)
+    if len(acts) < 2:
+        return []
+    ref_act = acts[0]
+    ref = _flat(by_act[ref_act][0].config, ignored)
+    out = []
+    for a in acts[1:]:
+        other = _flat(by_act[a][0].config, ignored)
+        for k in _dict_diff(ref, other):
+            out.append(f"{ref_act} and {a} runs differ in {k}: {ref.get(k)!r} vs {other.get(k)!r}")
+    return out
+
+
+def _flat(d: dict, ignored, prefix: str = "") -> dict:
+    out = {}
+    for k, v in d.items():
+        key = f"{prefix}{k}"
+        if key in ignored:
+            continue
+        if isinstance(v, dict):
+            out.update(_flat(v, ignored, key + "."))
+        else:
+            out[key] = v
+    return out
+
+
+def _dict_diff(a: dict, b: dict) -> list[str]:
+    return sorted(k for k in set(a) | set(b) if a.get(k, _MISSING) != b.get(k, _MISSING))
+
+
+_MISSING = object()
+_ORDER = {"swim": 0, "swish": 1, "relu": 2}
+
+
+def _act_order(label: str):
+    base = label.split("(")[0].split("+")[0]
+    return (_ORDER.get(base, 3), label)
+
+
+def _pos_int(v, name: str) -> int:
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or v != int(v) or int(v) <= 0:
+        raise ValueError(f"{name}={v!r} (must be a positive integer)")
+    return int(v)
+
+
+def _one_line(e: BaseException) -> str:
+    s = str(e) or type(e).__name__
+    return " ".join(s.split())[:300]
+
+
+__all__ = ["RunError", "Run", "Curves", "EnvGroup", "activation_label", "load_run", "group_runs",
+           "load_and_group"]
+
+
