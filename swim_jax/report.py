@@ -1,0 +1,482 @@
+"""The paper's Tables II/III and Figure 4 from our runs, with the statistics the paper lacks.
+
+    python -m swim_jax.report RUN_DIR... --out DIR [--bench FILE ...] [--score max|final|auc]
+                              [--n-boot 10000] [--boot-seed 0] [--allow-incomplete] [--force]
+
+RUN_DIR: run folders written by ``python -m swim_jax.train`` (config.yaml + evaluations.npy).
+Several folders of one (env, activation) are pooled as more seeds; all runs of one env must share
+``total_steps`` and ``eval_freq`` (see ``swim_jax/runs_io.py`` for the full grouping policy).
+``--bench FILE``: JSON from ``python -m swim_jax.bench activations`` with an ``actor_inference``
+section (Table III). At least one RUN_DIR or one ``--bench`` is required.
+
+Writes into DIR: ``REPORT.md`` (tables, figure, statistics, verdicts, budgets), ``results.json``
+(every number in full precision), ``figure4.png`` and ``figure4.svg`` (when there are runs).
+DIR must not exist or be empty unless ``--force`` (then only those files are replaced). Everything is
+computed before anything is written; output appears atomically (temporary folder, then rename).
+
+Exit status: 0 done; 2 bad input (missing/corrupt run folder or bench file, incompatible runs, bad
+arguments, non-empty --out without --force): one line on stderr, nothing written.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import shutil
+import sys
+import tempfile
+
+import numpy as np
+
+from swim_jax import paper_ref, stats
+from swim_jax.bench_io import BenchError, load_bench, speedup_pct
+from swim_jax.runs_io import EnvGroup, RunError, load_and_group
+
+OUTPUT_FILES = ("REPORT.md", "results.json", "figure4.png", "figure4.svg")
+SCORES = ("max", "final", "auc")
+SCORE_WORDS = {
+    "max": "max over evaluations of the seed's return",
+    "final": "the seed's return at the last evaluation",
+    "auc": "the seed's time-averaged return (trapezoid AUC / step span)",
+}
+PAIRS = (("swim", "swish"), ("swim", "relu"), ("swish", "relu"))
+
+
+class ReportError(ValueError):
+    """Bad input for the report; ``str(e)`` is one line."""
+
+
+# ------------------------------------------------------------------------------------------------
+# numbers
+# ------------------------------------------------------------------------------------------------
+
+
+def table2(groups: dict[str, EnvGroup]) -> dict:
+    """``{env: {activation: row}}`` with the Table II numbers of each pooled curve set.
+
+    row = ``{seeds, max_mean, max_std, max_step, final_mean, final_std, auc_mean, auc_std, runs}``:
+    ``max_mean`` is the max over evaluations of the mean-over-seeds return, ``max_std`` the
+    population std over seeds at that evaluation (``max_step``); ``final_*`` the mean/std over seeds
+    at the last evaluation; ``auc_*`` the mean/std over seeds of the per-seed trapezoid AUC divided
+    by the step span (time-averaged return).
+    """
+    out = {}
+    for env, g in groups.items():
+        out[env] = {}
+        for act, c in g.curves.items():
+            mx = stats.max_of_mean_curve(c.steps, c.returns)
+            fin = stats.final_return(c.steps, c.returns)
+            auc = stats.normalized_auc_per_seed(c.steps, c.returns)
+            out[env][act] = {
+                "seeds": c.n_seeds, "max_mean": mx.mean, "max_std": mx.std, "max_step": mx.step,
+                "final_mean": fin.mean, "final_std": fin.std, "final_step": fin.step,
+                "auc_mean": float(auc.mean()), "auc_std": float(auc.std(ddof=0)), "runs": list(c.runs),
+            }
+    return out
+
+
+def improvements(t2: dict) -> dict:
+    """``{env: {"max", "final", "auc": % improvement of Swim over Swish}}`` where both exist:
+    ``100 · (swim − swish) / |swish|`` on the Table II means."""
+    out = {}
+    for env, rows in t2.items():
+        if "swim" in rows and "swish" in rows:
+            out[env] = {m: stats.improvement_pct(rows["swim"][f"{m}_mean"], rows["swish"][f"{m}_mean"])
+                        for m in SCORES}
+    return out
+
+
+def comparisons(groups: dict[str, EnvGroup], n_boot: int, seed: int) -> dict:
+    """``{env: {"swim_vs_swish": {score: Comparison}, ...}}`` for each pair of PAIRS present."""
+    out = {}
+    for env, g in groups.items():
+        scores = {a: stats.per_seed_scores(c.steps, c.returns) for a, c in g.curves.items()}
+        per_env = {}
+        for x, y in PAIRS:
+            if x in scores and y in scores:
+                per_env[f"{x}_vs_{y}"] = {s: stats.compare(scores[x][s], scores[y][s], s, n_boot, seed)
+                                          for s in SCORES}
+        out[env] = per_env
+    return out
+
+
+def table3(bench_rows) -> list[dict]:
+    """Table III rows, one per (source, env, dtype): per-activation mean/std ms and Swim's speed-up
+    over Swish (``100 · (swish − swim) / swim``, the paper's definition), with the paper's row."""
+    cells: dict[tuple, dict] = {}
+    for r in bench_rows:
+        cells.setdefault((r.source, r.env, r.dtype), {})[r.activation] = r
+    out = []
+    for (src, env, dtype), acts in cells.items():
+        row = {"source": src, "env": env, "dtype": dtype,
+               "ms": {a: {"mean": t.mean_ms, "std": t.std_ms} for a, t in acts.items()}}
+        row["improvement_pct"] = (speedup_pct(acts["swim"].mean_ms, acts["swish"].mean_ms)
+                                  if "swim" in acts and "swish" in acts else None)
+        penv = paper_ref.paper_env(env)
+        row["paper_env"] = penv
+        if penv is not None:
+            row["paper"] = {a: {"mean": m, "std": s} for a, (m, s) in paper_ref.TABLE_III[penv].items()}
+            row["paper_improvement_pct"] = paper_ref.TABLE_III_IMPROVEMENT_PCT[penv]
+        out.append(row)
+    return out
+
+
+# ------------------------------------------------------------------------------------------------
+# markdown
+# ------------------------------------------------------------------------------------------------
+
+
+def _pm(m: float, s: float, nd: int = 2) -> str:
+    return f"{m:.{nd}f} ± {s:.{nd}f}"
+
+
+def _pct(p) -> str:
+    if p is None or not math.isfinite(p):
+        return "—"
+    return f"{p:+.1f}%"
+
+
+def _name(label: str) -> str:
+    from swim_jax.report_figure import display_name
+
+    return display_name(label)
+
+
+def _md_table(header: list[str], rows: list[list[str]]) -> str:
+    lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
+    lines += ["| " + " | ".join(r) + " |" for r in rows]
+    return "\n".join(lines)
+
+
+def render_markdown(groups, t2, imp, comps, t3, bench_meta, score: str, n_boot: int, boot_seed: int,
+                    command: str, has_figure: bool) -> str:
+    """The whole REPORT.md as a string (pure function of the computed numbers)."""
+    L = ["# Swim vs Swish vs ReLU for TD3: report", "", f"Generated by `{command}`.", ""]
+    pb = paper_ref.PAPER_BUDGET
+    if groups:
+        L += ["## Budget", "",
+              f"The paper: {pb['total_steps']:,} steps per run, evaluation every {pb['eval_freq']} steps, "
+              f"{pb['seeds']} seeds, {pb['precision']}, gym MuJoCo -v2 envs. Ours:", ""]
+        rows = []
+        for env, g in groups.items():
+            cfg = _first_config(g)
+            seeds = ", ".join(f"{_name(a)} {c.n_seeds}" for a, c in g.curves.items())
+            steps = f"{g.total_steps:,}"
+            if g.truncated_to_step is not None:
+                steps += f" (truncated to {g.truncated_to_step:,}: incomplete runs)"
+            rows.append([env, steps, str(g.eval_freq), str(cfg.get("eval_episodes", "?")), seeds,
+                         str(cfg.get("precision", "?"))])
+        L += [_md_table(["env", "steps per run", "eval every", "episodes per eval", "seeds", "precision"], rows), ""]
+        small = [env for env, g in groups.items() if g.total_steps < pb["total_steps"]
+                 or min(c.n_seeds for c in g.curves.values()) < pb["seeds"]]
+        if small:
+            L += [f"**Smaller budget than the paper** for {', '.join(small)}: returns are not comparable "
+                  f"with the paper's in absolute terms.", ""]
+        warns = [f"- {env}: {w}" for env, g in groups.items() for w in g.warnings]
+        if warns:
+            L += ["**Config differences between activations** (beyond the activation itself):", ""] + warns + [""]
+
+        L += ["## Table II: returns", "",
+              "Definitions. *Max*: the maximum over evaluations of the mean-over-seeds return (the paper's "
+              "metric), ± the standard deviation over seeds at that same evaluation. *Final*: mean ± std "
+              "over seeds at the last evaluation. *AUC*: per seed, the trapezoid area under the return curve "
+              "divided by the step span (= time-averaged return, same units as a return); mean ± std over "
+              "seeds. All std are population std over seeds (ddof = 0, as `numpy.std`). Each evaluation is "
+              "the mean return of the run's evaluation episodes without exploration noise.", ""]
+        for env, rows_ in t2.items():
+            L += [f"### {env}", ""]
+            rows = [[_name(a), str(r["seeds"]), _pm(r["max_mean"], r["max_std"]), f"{r['max_step']:,}",
+                     _pm(r["final_mean"], r["final_std"]), _pm(r["auc_mean"], r["auc_std"])]
+                    for a, r in rows_.items()]
+            L += [_md_table(["activation", "seeds", "max of mean return ± std", "at step",
+                             "final return ± std", "AUC / steps ± std"], rows), ""]
+
+        L += ["### Swim vs Swish, next to the paper", "",
+              "Improvement = (Swim − Swish) / |Swish| of the means. The paper's columns are its Table II "
+              "(gym -v2 envs, 1M steps, 5 seeds, float64): **a different env version and budget**, shown "
+              "for orientation only.", ""]
+        rows = []
+        for env in t2:
+            r = t2[env]
+            if "swim" not in r or "swish" not in r:
+                continue
+            penv = paper_ref.paper_env(env)
+            if penv:
+                ps, pw = paper_ref.TABLE_II[penv]["swish"], paper_ref.TABLE_II[penv]["swim"]
+                paper_cells = [f"{penv} (1M steps, 5 seeds)", _pm(*ps, nd=1), _pm(*pw, nd=1),
+                               f"{paper_ref.TABLE_II_IMPROVEMENT_PCT[penv]}%"]
+            else:
+                paper_cells = ["— (not in the paper)", "—", "—", "—"]
+            rows.append([env, _pm(r["swish"]["max_mean"], r["swish"]["max_std"], 1),
+                         _pm(r["swim"]["max_mean"], r["swim"]["max_std"], 1), _pct(imp[env]["max"]),
+                         _pct(imp[env]["final"]), _pct(imp[env]["auc"])] + paper_cells)
+        if rows:
+            L += [_md_table(["env", "Swish max", "Swim max", "impr. max", "impr. final", "impr. AUC",
+                             "paper env", "paper Swish", "paper Swim", "paper impr."], rows), ""]
+        else:
+            L += ["(No env has both Swim and Swish runs.)", ""]
+
+        if has_figure:
+            L += ["## Figure 4: learning curves", "",
+                  "Mean over seeds; shaded: ± half a standard deviation over seeds (as in the paper).", "",
+                  "![Figure 4: learning curves](figure4.png)", "", "Vector version: [figure4.svg](figure4.svg)", ""]
+
+        L += ["## Beyond the paper: statistics per env", "",
+              f"Per-seed scores: *max* = {SCORE_WORDS['max']}; *final* = {SCORE_WORDS['final']}; *auc* = "
+              f"{SCORE_WORDS['auc']}. CI: 95% percentile bootstrap of the mean over seeds ({n_boot} resamples, "
+              f"numpy default_rng seed {boot_seed}, so deterministic); the difference's CI resamples both "
+              "samples independently. IQM: interquartile mean over seeds (drop ⌊n/4⌋ from each end). "
+              "P(X > Y): over all seed pairs, ties count ½. Welch: unequal-variance t-test, "
+              "Welch–Satterthwaite df, two-sided p.", ""]
+        rows = []
+        for env, per in comps.items():
+            for pair, by_score in per.items():
+                x, y = pair.split("_vs_")
+                for s, c in by_score.items():
+                    w = c.welch
+                    rows.append([env, f"{_name(x)} vs {_name(y)}", s, f"{c.n_x}/{c.n_y}",
+                                 f"{c.mean_x:.1f} [{c.ci_x[0]:.1f}, {c.ci_x[1]:.1f}]",
+                                 f"{c.mean_y:.1f} [{c.ci_y[0]:.1f}, {c.ci_y[1]:.1f}]",
+                                 f"{c.iqm_x:.1f} / {c.iqm_y:.1f}",
+                                 f"{c.diff:+.1f} [{c.diff_ci[0]:+.1f}, {c.diff_ci[1]:+.1f}]",
+                                 f"{c.prob_improvement:.2f}",
+                                 "—" if w is None else f"{w.t:.2f} ({w.df:.1f})",
+                                 "—" if w is None else stats._fmt_p(w.p_two_sided)])
+        if rows:
+            L += [_md_table(["env", "X vs Y", "score", "seeds X/Y", "X mean [95% CI]", "Y mean [95% CI]",
+                             "IQM X / Y", "X − Y [95% CI]", "P(X > Y)", "Welch t (df)", "p"], rows), ""]
+        else:
+            L += ["(No env has two of Swim, Swish, ReLU to compare.)", ""]
+
+        L += ["## Verdict: Swim vs Swish", "",
+              f"On the per-seed **{score}** score ({SCORE_WORDS[score]}). The evidence counts as sufficient "
+              f"only with ≥ {stats.MIN_SEEDS} seeds per activation, Welch p < {stats.ALPHA} and a 95% CI of "
+              "the difference that excludes 0.", ""]
+        any_v = False
+        for env, per in comps.items():
+            if "swim_vs_swish" in per:
+                L.append(f"- **{env}**: {stats.verdict(per['swim_vs_swish'][score])}")
+                any_v = True
+            else:
+                L.append(f"- **{env}**: no verdict (needs both Swim and Swish runs).")
+        L += [""] if any_v or comps else []
+
+    if t3:
+        L += ["## Table III: actor inference time", "",
+              "Actor forward pass on a batch of 256 states, mean ± std in ms over the timed calls. "
+              "Improvement = (Swish − Swim) / Swim, the paper's definition (time saved by Swim). The paper's "
+              "columns: its Table III (first 100 training iterations, ARM CPU, float64) — a different "
+              "machine.", ""]
+        acts = [a for a in ("swim", "swish", "relu") if any(a in r["ms"] for r in t3)]
+        rows = []
+        for r in t3:
+            cells = [r["env"], r["dtype"]]
+            cells += [_pm(r["ms"][a]["mean"], r["ms"][a]["std"], 3) if a in r["ms"] else "—" for a in acts]
+            cells.append(_pct(r["improvement_pct"]))
+            if r.get("paper"):
+                cells += [f"{r['paper_env']} (float64, ARM)", _pm(r["paper"]["swish"]["mean"], r["paper"]["swish"]["std"], 3),
+                          _pm(r["paper"]["swim"]["mean"], r["paper"]["swim"]["std"], 3),
+                          f"{r['paper_improvement_pct']}%"]
+            else:
+                cells += ["—"] * 4
+            cells.append(r["source"])
+            rows.append(cells)
+        L += [_md_table(["env", "dtype"] + [f"{_name(a)} ms" for a in acts] +
+                        ["Swim impr.", "paper env", "paper Swish ms", "paper Swim ms", "paper impr.", "source"], rows), ""]
+        for src, meta in bench_meta.items():
+            desc = ", ".join(f"{k}: {meta[k]}" for k in ("cpu", "cores", "jax", "clock", "repeats", "time", "command")
+                             if k in meta)
+            L.append(f"- `{src}`: {desc}")
+        L.append("")
+
+    if groups:
+        L += ["## Inputs", ""]
+        for env, g in groups.items():
+            for a, c in g.curves.items():
+                L.append(f"- {env} / {_name(a)}: " + ", ".join(f"`{p}`" for p in c.runs))
+        L.append("")
+    return "\n".join(L)
+
+
+def _first_config(g: EnvGroup) -> dict:
+    import yaml
+
+    c = next(iter(g.curves.values()))
+    with open(os.path.join(c.runs[0], "config.yaml")) as f:
+        return yaml.safe_load(f)
+
+
+# ------------------------------------------------------------------------------------------------
+# results.json
+# ------------------------------------------------------------------------------------------------
+
+
+def results_dict(groups, t2, imp, comps, t3, score, n_boot, boot_seed) -> dict:
+    """Every number of the report, JSON-serialisable."""
+    def comp(c: stats.Comparison) -> dict:
+        w = c.welch
+        return {"n_x": c.n_x, "n_y": c.n_y, "mean_x": c.mean_x, "mean_y": c.mean_y, "diff": c.diff,
+                "diff_ci95": list(c.diff_ci), "ci95_x": list(c.ci_x), "ci95_y": list(c.ci_y),
+                "iqm_x": c.iqm_x, "iqm_y": c.iqm_y, "prob_improvement": c.prob_improvement,
+                "welch": None if w is None else {"t": w.t, "df": w.df, "p_two_sided": w.p_two_sided}}
+
+    return {
+        "definitions": {
+            "max": "max over evaluations of the mean-over-seeds return; std = population std over seeds at that evaluation",
+            "final": "mean / population std over seeds at the last evaluation",
+            "auc": "per-seed trapezoid AUC over steps divided by the step span; mean / population std over seeds",
+            "improvement_pct": "100*(swim-swish)/|swish| of the means",
+            "table3_improvement_pct": "100*(swish-swim)/swim of the mean ms (the paper's definition)",
+            "bootstrap": f"percentile, {n_boot} resamples, numpy default_rng(seed={boot_seed}), 95%",
+        },
+        "paper_budget": paper_ref.PAPER_BUDGET,
+        "envs": {
+            env: {
+                "total_steps": g.total_steps, "eval_freq": g.eval_freq, "truncated_to_step": g.truncated_to_step,
+                "steps": [int(s) for s in g.steps], "warnings": g.warnings,
+                "curves": {a: {"mean": c.returns.mean(axis=1).tolist(), "std": c.returns.std(axis=1).tolist()}
+                           for a, c in g.curves.items()},
+                "table2": t2[env], "improvement_pct": imp.get(env),
+                "comparisons": {pair: {s: comp(c) for s, c in by.items()} for pair, by in comps[env].items()},
+                "verdict": (stats.verdict(comps[env]["swim_vs_swish"][score])
+                            if "swim_vs_swish" in comps[env] else None),
+            }
+            for env, g in groups.items()
+        },
+        "verdict_score": score,
+        "table3": t3,
+    }
+
+
+# ------------------------------------------------------------------------------------------------
+# CLI
+# ------------------------------------------------------------------------------------------------
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # one line, exit 2
+        self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
+
+
+def parse_args(argv):
+    p = _Parser(prog="python -m swim_jax.report", description=__doc__.split("\n")[0],
+                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("runs", nargs="*", metavar="RUN_DIR", help="run folders from python -m swim_jax.train")
+    p.add_argument("--out", required=True, help="output folder (must not exist or be empty, unless --force)")
+    p.add_argument("--bench", action="append", default=[], metavar="FILE",
+                   help="activation benchmark JSON for Table III (repeatable)")
+    p.add_argument("--score", choices=SCORES, default="max",
+                   help="per-seed score the verdict uses (default max, the paper's Table II metric)")
+    p.add_argument("--n-boot", type=int, default=10_000, help="bootstrap resamples (default 10000)")
+    p.add_argument("--boot-seed", type=int, default=0, help="bootstrap RNG seed (default 0)")
+    p.add_argument("--allow-incomplete", action="store_true",
+                   help="truncate every run of an env to the evaluations all of them have")
+    p.add_argument("--force", action="store_true",
+                   help="write into a non-empty --out, replacing only the report's own files")
+    a = p.parse_args(argv)
+    if not a.runs and not a.bench:
+        p.error("give at least one RUN_DIR or --bench FILE")
+    if a.n_boot < 100:
+        p.error("--n-boot must be >= 100")
+    return a
+
+
+def build(args, command: str) -> dict[str, bytes | str]:
+    """Compute everything from ``args``; return ``{file name: content}`` (figures as bytes).
+
+    Raises :class:`ReportError` (one line) on bad input. Writes nothing.
+    """
+    try:
+        groups = load_and_group(args.runs, allow_incomplete=args.allow_incomplete) if args.runs else {}
+    except RunError as e:
+        raise ReportError(str(e)) from None
+    bench_rows, bench_meta = [], {}
+    for path in args.bench:
+        try:
+            rows, meta = load_bench(path)
+        except BenchError as e:
+            raise ReportError(str(e)) from None
+        src = os.path.basename(path)
+        if src in bench_meta:
+            raise ReportError(f"{path}: two --bench files share the name {src}")
+        bench_rows += rows
+        bench_meta[src] = meta
+    t2 = table2(groups)
+    imp = improvements(t2)
+    comps = comparisons(groups, args.n_boot, args.boot_seed)
+    t3 = table3(bench_rows)
+    files: dict[str, bytes | str] = {}
+    if groups:
+        from swim_jax.report_figure import figure4
+
+        with tempfile.TemporaryDirectory() as tmp:
+            paths = [os.path.join(tmp, "figure4.png"), os.path.join(tmp, "figure4.svg")]
+            figure4(groups, paths)
+            for p in paths:
+                with open(p, "rb") as f:
+                    files[os.path.basename(p)] = f.read()
+    files["REPORT.md"] = render_markdown(groups, t2, imp, comps, t3, bench_meta, args.score, args.n_boot,
+                                         args.boot_seed, command, has_figure=bool(groups))
+    res = results_dict(groups, t2, imp, comps, t3, args.score, args.n_boot, args.boot_seed)
+    files["results.json"] = json.dumps(res, indent=1, allow_nan=True) + "\n"
+    return files
+
+
+def write_outputs(out: str, files: dict, force: bool) -> None:
+    """Write ``files`` into ``out`` atomically per folder: a fresh/empty ``out`` receives a
+    completed temporary folder by rename; with ``force`` each file is replaced by ``os.replace``."""
+    exists = os.path.exists(out)
+    if exists and not os.path.isdir(out):
+        raise ReportError(f"--out {out} exists and is not a directory")
+    nonempty = exists and bool(os.listdir(out))
+    if nonempty and not force:
+        raise ReportError(f"--out {out} exists and is not empty; refusing to overwrite (use --force "
+                          f"to replace {', '.join(OUTPUT_FILES)} there)")
+    parent = os.path.dirname(os.path.abspath(out))
+    try:
+        os.makedirs(parent, exist_ok=True)
+        tmp = tempfile.mkdtemp(prefix=".report-", dir=parent)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o777 & ~umask)
+    except OSError as e:
+        raise ReportError(f"--out {out}: cannot write ({e.strerror})") from None
+    try:
+        for name, content in files.items():
+            mode = "wb" if isinstance(content, bytes) else "w"
+            with open(os.path.join(tmp, name), mode, **({} if mode == "wb" else {"encoding": "utf-8"})) as f:
+                f.write(content)
+        if not exists:
+            os.rename(tmp, out)
+            tmp = None
+        else:
+            for name in files:
+                os.replace(os.path.join(tmp, name), os.path.join(out, name))
+    finally:
+        if tmp is not None:
+            shutil.rmtree(tmp, ignore_errors=True)
+
+
+def main(argv=None) -> int:
+    """CLI entry point; returns the exit status (0 ok, 2 bad input with one line on stderr)."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    args = parse_args(argv)
+    command = "python -m swim_jax.report " + " ".join(argv)
+    try:
+        # refuse a non-empty --out before the (slower) computation, and again when writing
+        if os.path.isdir(args.out) and os.listdir(args.out) and not args.force:
+            raise ReportError(f"--out {args.out} exists and is not empty; refusing to overwrite (use "
+                              f"--force to replace {', '.join(OUTPUT_FILES)} there)")
+        files = build(args, command)
+        write_outputs(args.out, files, args.force)
+    except ReportError as e:
+        print(f"report: error: {e}", file=sys.stderr)
+        return 2
+    print(f"report: wrote {', '.join(sorted(files))} to {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,69 @@
+"""Figure 4 of the paper from our runs: learning curves, mean ± half a std over seeds, one panel per env.
+
+Headless (matplotlib Agg). The SVG is written with a fixed hash salt and no date so that the same
+inputs give the same bytes.
+"""
+
+from __future__ import annotations
+
+import math
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+COLORS = {"swim": "tab:red", "swish": "tab:blue", "relu": "tab:green"}
+NAMES = {"swim": "Swim", "swish": "Swish", "relu": "ReLU"}
+
+
+def display_name(label: str) -> str:
+    """``swim`` → ``Swim``; labels with parameters keep them (``Swim(k=0.75)``)."""
+    for k, v in NAMES.items():
+        if label == k or label.startswith(k + "(") or label.startswith(k + "+"):
+            return v + label[len(k):]
+    return label
+
+
+def figure4(groups: dict, paths: list[str]) -> None:
+    """Draw one panel per env of ``groups`` ({env: EnvGroup}) and save it to each of ``paths``.
+
+    Each activation's curve is the mean over seeds of the evaluation return against env steps, with
+    the band mean ± 0.5 · (population) std over seeds shaded, as in the paper.
+    """
+    envs = list(groups)
+    n = max(1, len(envs))
+    ncols = min(n, 3)
+    nrows = math.ceil(n / ncols)
+    with plt.rc_context({"svg.hashsalt": "swim-jax-report"}):
+        fig, axes = plt.subplots(nrows, ncols, figsize=(5.0 * ncols, 3.8 * nrows), squeeze=False)
+        others = iter(plt.rcParams["axes.prop_cycle"].by_key()["color"][3:])
+        extra_colors: dict[str, str] = {}
+        for ax, env in zip(axes.flat, envs):
+            g = groups[env]
+            for label, c in g.curves.items():
+                base = label.split("(")[0].split("+")[0]
+                color = COLORS.get(base) if label == base else None
+                if color is None:
+                    color = extra_colors.setdefault(label, next(others, "0.3"))
+                mean = c.returns.mean(axis=1)
+                half = 0.5 * c.returns.std(axis=1, ddof=0)
+                ax.plot(c.steps, mean, color=color, lw=1.6, label=f"{display_name(label)} ({c.n_seeds} seeds)")
+                ax.fill_between(c.steps, mean - half, mean + half, color=color, alpha=0.2, lw=0)
+            title = env
+            if g.truncated_to_step is not None:
+                title += f" (truncated at {g.truncated_to_step} steps)"
+            ax.set_title(title)
+            ax.set_xlabel("environment steps")
+            ax.set_ylabel("average return")
+            ax.grid(alpha=0.3)
+            ax.legend(fontsize=8, loc="best")
+        for ax in list(axes.flat)[len(envs):]:
+            ax.set_visible(False)
+        fig.suptitle("Learning curves: mean over seeds, shaded ± ½ std", fontsize=11)
+        fig.tight_layout()
+        for p in paths:
+            kw = {"metadata": {"Date": None}} if str(p).endswith(".svg") else {"dpi": 120}
+            fig.savefig(p, **kw)
+        plt.close(fig)
