@@ -1,0 +1,333 @@
+"""python -m swim_jax.report on synthetic run folders with known curves (expectations by hand)."""
+
+import json
+import math
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import yaml
+
+from swim_jax import report
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+# Walker2d-v5, total_steps 200, eval_freq 100 -> evaluations at steps 0, 100, 200
+SWIM = np.array([[0.0, 10.0], [60.0, 40.0], [40.0, 50.0]])  # mean 5, 50, 45
+SWISH = np.array([[0.0, 0.0], [20.0, 30.0], [30.0, 40.0]])  # mean 0, 25, 35
+
+
+def write_run(root, name, env="Walker2d-v5", act="swim", returns=SWIM, total_steps=200, eval_freq=100,
+              first_seed=0, seed=0, k=0.5, beta=1.0, hidden=(8, 8), precision="float32", **extra):
+    """A minimal run folder in the format of swim_jax.train (config.yaml + evaluations.npy)."""
+    d = os.path.join(str(root), name)
+    os.makedirs(d)
+    returns = np.asarray(returns, dtype=np.float64)
+    cfg = {
+        "env": {"id": env, "max_episode_steps": 1000},
+        "agent": {"hidden": list(hidden), "activation": {"name": act, "k": k, "beta": beta, "learnable": False},
+                  "batch_size": 64},
+        "seeds": returns.shape[1], "first_seed": first_seed, "seed": seed, "total_steps": total_steps,
+        "eval_freq": eval_freq, "eval_episodes": 5, "precision": precision, "out_dir": str(root), "name": name,
+    }
+    cfg.update(extra)
+    with open(os.path.join(d, "config.yaml"), "w") as f:
+        yaml.safe_dump(cfg, f)
+    np.save(os.path.join(d, "evaluations.npy"), returns)
+    return d
+
+
+def run_report(args, capsys):
+    rc = report.main([str(a) for a in args])
+    cap = capsys.readouterr()
+    return rc, cap.out, cap.err
+
+
+@pytest.fixture
+def walker(tmp_path):
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    return [write_run(runs, "swim", act="swim", returns=SWIM), write_run(runs, "swish", act="swish", returns=SWISH)]
+
+
+def test_table2_values_by_hand(tmp_path, walker, capsys):
+    out = tmp_path / "out"
+    rc, _, err = run_report(walker + ["--out", out, "--n-boot", "500"], capsys)
+    assert rc == 0, err
+    res = json.loads((out / "results.json").read_text())
+    t2 = res["envs"]["Walker2d-v5"]["table2"]
+    # swim: mean curve 5, 50, 45 -> max 50 at step 100, std over seeds there = |60-40|/2 = 10
+    # final 45 +- 5; AUC: seed0 (0+60)/2*100+(60+40)/2*100 = 8000 -> /200 = 40; seed1 7000/200 = 35
+    expect_swim = dict(seeds=2, max_mean=50.0, max_std=10.0, max_step=100, final_mean=45.0, final_std=5.0,
+                       auc_mean=37.5, auc_std=2.5)
+    # swish: mean 0, 25, 35 -> max 35 at 200 (std 5) = final; AUC seed0 3500/200, seed1 5000/200
+    expect_swish = dict(seeds=2, max_mean=35.0, max_std=5.0, max_step=200, final_mean=35.0, final_std=5.0,
+                        auc_mean=21.25, auc_std=3.75)
+    for act, exp in (("swim", expect_swim), ("swish", expect_swish)):
+        for key, val in exp.items():
+            assert t2[act][key] == pytest.approx(val, abs=1e-12), (act, key)
+    imp = res["envs"]["Walker2d-v5"]["improvement_pct"]
+    assert imp["max"] == pytest.approx(100 * 15 / 35)
+    assert imp["final"] == pytest.approx(100 * 10 / 35)
+    assert imp["auc"] == pytest.approx(100 * 16.25 / 21.25)
+    md = (out / "REPORT.md").read_text()
+    assert "| Swim | 2 | 50.00 ± 10.00 | 100 | 45.00 ± 5.00 | 37.50 ± 2.50 |" in md
+    assert "| Swish | 2 | 35.00 ± 5.00 | 200 | 35.00 ± 5.00 | 21.25 ± 3.75 |" in md
+    # side by side with the paper's Walker2d-v2 row, labelled as a different env version and budget
+    assert ("| Walker2d-v5 | 35.0 ± 5.0 | 50.0 ± 10.0 | +42.9% | +28.6% | +76.5% | Walker2d-v2 (1M steps, 5 seeds) "
+            "| 3774.7 ± 149.8 | 4387.4 ± 453.5 | 16% |") in md
+    assert "different env version and budget" in md
+    assert "standard deviation over seeds at that same evaluation" in md
+    assert "1,000,000 steps per run" in md and "| Walker2d-v5 | 200 | 100 | 5 | Swim 2, Swish 2 | float32 |" in md
+    assert "Evidence too weak" in md and "fewer than 5" in md  # 2 seeds
+
+
+def test_figures_written_and_non_empty(tmp_path, walker, capsys):
+    out = tmp_path / "out"
+    assert run_report(walker + ["--out", out, "--n-boot", "200"], capsys)[0] == 0
+    png = (out / "figure4.png").read_bytes()
+    svg = (out / "figure4.svg").read_text()
+    assert png.startswith(b"\x89PNG") and len(png) > 5000
+    assert "<svg" in svg and len(svg) > 5000
+    md = (out / "REPORT.md").read_text()
+    assert "![Figure 4: learning curves](figure4.png)" in md
+
+
+def test_deterministic_output(tmp_path, walker, capsys):
+    a, b = tmp_path / "a", tmp_path / "b"
+    assert run_report(walker + ["--out", a, "--n-boot", "300"], capsys)[0] == 0
+    assert run_report(walker + ["--out", b, "--n-boot", "300"], capsys)[0] == 0
+    assert (a / "results.json").read_text() == (b / "results.json").read_text()
+    assert (a / "figure4.svg").read_bytes() == (b / "figure4.svg").read_bytes()
+
+
+def test_statistics_against_independent_computation(tmp_path, capsys):
+    rng = np.random.default_rng(0)
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    base = np.linspace(0, 100, 5)[:, None]
+    swim = base + rng.normal(0, 5, size=(5, 6)) + np.linspace(0, 30, 5)[:, None]
+    swish = base + rng.normal(0, 5, size=(5, 5))
+    paths = [write_run(runs, "a", act="swim", returns=swim, total_steps=400),
+             write_run(runs, "b", act="swish", returns=swish, total_steps=400)]
+    out = tmp_path / "out"
+    assert run_report(paths + ["--out", out, "--n-boot", "4000", "--score", "final"], capsys)[0] == 0
+    res = json.loads((out / "results.json").read_text())
+    c = res["envs"]["Walker2d-v5"]["comparisons"]["swim_vs_swish"]["final"]
+    x, y = swim[-1], swish[-1]
+    assert c["mean_x"] == pytest.approx(x.mean()) and c["mean_y"] == pytest.approx(y.mean())
+    assert c["iqm_x"] == pytest.approx(np.sort(x)[1:5].mean())  # n=6: drop 1 each end
+    assert c["prob_improvement"] == pytest.approx(np.mean([[xi > yi for yi in y] for xi in x]))
+    # bootstrap CI of the mean: an independent loop bootstrap with another RNG stream
+    r2 = np.random.default_rng(777)
+    boots = [x[r2.integers(0, 6, 6)].mean() for _ in range(20000)]
+    lo, hi = np.quantile(boots, [0.025, 0.975])
+    half = (hi - lo) / 2
+    assert c["ci95_x"][0] == pytest.approx(lo, abs=0.1 * half)
+    assert c["ci95_x"][1] == pytest.approx(hi, abs=0.1 * half)
+    # Welch by hand
+    vx, vy = x.var(ddof=1) / 6, y.var(ddof=1) / 5
+    assert c["welch"]["t"] == pytest.approx((x.mean() - y.mean()) / math.sqrt(vx + vy), rel=1e-12)
+    assert c["welch"]["df"] == pytest.approx((vx + vy) ** 2 / (vx ** 2 / 5 + vy ** 2 / 4), rel=1e-12)
+    sps = pytest.importorskip("scipy.stats")
+    ref = sps.ttest_ind(x, y, equal_var=False)
+    assert c["welch"]["p_two_sided"] == pytest.approx(ref.pvalue, rel=1e-8)
+    assert res["verdict_score"] == "final"
+
+
+def test_pooling_more_seeds_and_grouping_by_env(tmp_path, capsys):
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    extra = np.array([[5.0], [70.0], [20.0]])
+    hop = np.array([[1.0, 2.0], [3.0, 4.0], [5.0, 6.0], [7.0, 8.0], [9.0, 10.0]])
+    paths = [
+        write_run(runs, "swim_a", act="swim", returns=SWIM),
+        write_run(runs, "swim_b", act="swim", returns=extra, first_seed=2),  # seed index 2: new seed
+        write_run(runs, "swish", act="swish", returns=SWISH),
+        write_run(runs, "relu", act="relu", returns=SWISH + 1),
+        write_run(runs, "hop", env="Hopper-v5", act="swim", returns=hop, total_steps=4000, eval_freq=1000),
+        write_run(runs, "swim_k", act="swim", k=0.75, returns=SWISH),  # a different activation label
+    ]
+    out = tmp_path / "out"
+    rc, _, err = run_report(paths + ["--out", out, "--n-boot", "200"], capsys)
+    assert rc == 0, err
+    res = json.loads((out / "results.json").read_text())
+    assert sorted(res["envs"]) == ["Hopper-v5", "Walker2d-v5"]
+    w = res["envs"]["Walker2d-v5"]
+    assert list(w["table2"]) == ["swim", "swim(k=0.75)", "swish", "relu"]
+    pooled = np.concatenate([SWIM, extra], axis=1)  # means 5, 56.67, 36.67
+    assert w["table2"]["swim"]["seeds"] == 3
+    assert w["table2"]["swim"]["max_mean"] == pytest.approx(170 / 3)
+    assert w["table2"]["swim"]["max_std"] == pytest.approx(np.std([60.0, 40.0, 70.0]))
+    np.testing.assert_allclose(w["curves"]["swim"]["mean"], pooled.mean(axis=1))
+    assert set(w["comparisons"]) == {"swim_vs_swish", "swim_vs_relu", "swish_vs_relu"}
+    h = res["envs"]["Hopper-v5"]
+    assert h["steps"] == [0, 1000, 2000, 3000, 4000] and h["table2"]["swim"]["max_mean"] == 9.5
+    assert h["verdict"] is None
+    md = (out / "REPORT.md").read_text()
+    assert "Swim(k=0.75)" in md and "Hopper-v5**: no verdict" in md
+
+
+def test_table3_from_bench_json(tmp_path, capsys):
+    rows = [
+        {"dtype": "float64", "env": "Walker2d", "activation": "swish", "mean_ms": 0.9, "std_ms": 0.1, "median_ms": 0.85},
+        {"dtype": "float64", "env": "Walker2d", "activation": "swim", "mean_ms": 0.75, "std_ms": 0.05, "median_ms": 0.7},
+        {"dtype": "float64", "env": "Walker2d", "activation": "relu", "mean_ms": 0.5, "std_ms": 0.02, "median_ms": 0.5},
+        {"dtype": "float64", "env": "Walker2d", "activation": "swim_vs_swish", "improvement_pct_mean": 20.0},
+        {"dtype": "float32", "env": "Ant", "activation": "swish", "mean_ms": 1.0, "std_ms": 0.1},
+        {"dtype": "float32", "env": "Ant", "activation": "swim", "mean_ms": 1.25, "std_ms": 0.1},
+    ]
+    bench = tmp_path / "activations-x.json"
+    bench.write_text(json.dumps({"machine": {"cpu": "test cpu"}, "actor_inference": rows}))
+    out = tmp_path / "out"
+    rc, _, err = run_report(["--bench", bench, "--out", out], capsys)
+    assert rc == 0, err
+    res = json.loads((out / "results.json").read_text())
+    t3 = {(r["env"], r["dtype"]): r for r in res["table3"]}
+    assert t3[("Walker2d", "float64")]["improvement_pct"] == pytest.approx(100 * 0.15 / 0.75)  # 20%
+    assert t3[("Ant", "float32")]["improvement_pct"] == pytest.approx(-20.0)
+    md = (out / "REPORT.md").read_text()
+    assert ("| Walker2d | float64 | 0.750 ± 0.050 | 0.900 ± 0.100 | 0.500 ± 0.020 | +20.0% | Walker2d-v2 (float64, ARM) "
+            "| 0.810 ± 0.066 | 0.687 ± 0.077 | 17.9% | activations-x.json |") in md
+    assert "| Ant | float32 | 1.250 ± 0.100 | 1.000 ± 0.100 | — | -20.0% | — | — | — | — |" in md
+    assert not (out / "figure4.png").exists()  # no runs, no figure
+
+
+# ------------------------------------------------------------------------------------------------
+# errors: one line on stderr, exit 2, nothing written
+# ------------------------------------------------------------------------------------------------
+
+
+def _corrupt(kind, root):
+    if kind == "nonexistent":
+        return os.path.join(str(root), "nope")
+    d = write_run(root, "bad", act="swish", returns=SWISH)
+    if kind == "no_config":
+        os.remove(os.path.join(d, "config.yaml"))
+    elif kind == "no_evals":
+        os.remove(os.path.join(d, "evaluations.npy"))
+    elif kind == "bad_yaml":
+        with open(os.path.join(d, "config.yaml"), "w") as f:
+            f.write("env: {id: [unclosed\n  :: -\n")
+    elif kind == "yaml_not_mapping":
+        with open(os.path.join(d, "config.yaml"), "w") as f:
+            f.write("- 1\n- 2\n")
+    elif kind == "no_env_key":
+        with open(os.path.join(d, "config.yaml"), "w") as f:
+            yaml.safe_dump({"total_steps": 200, "eval_freq": 100, "seeds": 2}, f)
+    elif kind == "bad_npy":
+        with open(os.path.join(d, "evaluations.npy"), "wb") as f:
+            f.write(b"not a numpy file")
+    elif kind == "shape_seeds":
+        np.save(os.path.join(d, "evaluations.npy"), np.zeros((3, 3)))
+    elif kind == "shape_too_many_evals":
+        np.save(os.path.join(d, "evaluations.npy"), np.zeros((4, 2)))
+    elif kind == "nan":
+        np.save(os.path.join(d, "evaluations.npy"), np.full((3, 2), np.nan))
+    return d
+
+
+@pytest.mark.parametrize("kind", ["nonexistent", "no_config", "no_evals", "bad_yaml", "yaml_not_mapping",
+                                  "no_env_key", "bad_npy", "shape_seeds", "shape_too_many_evals", "nan"])
+def test_corrupt_run_folder_exit_2_one_line_nothing_written(tmp_path, walker, capsys, kind):
+    bad = _corrupt(kind, tmp_path)
+    out = tmp_path / "out"
+    rc, stdout, err = run_report(walker + [bad, "--out", out], capsys)
+    assert rc == 2
+    assert len(err.strip().splitlines()) == 1 and err.startswith("report: error: ")
+    assert ("bad" in err) or ("nope" in err)
+    assert not out.exists()
+    assert [p for p in os.listdir(tmp_path) if p.startswith(".report-")] == []
+
+
+def test_budget_conflict_in_one_env_is_refused_naming_both_runs(tmp_path, walker, capsys):
+    other = write_run(tmp_path, "long", act="relu", returns=np.zeros((5, 2)), total_steps=400)
+    rc, _, err = run_report(walker + [other, "--out", tmp_path / "out"], capsys)
+    assert rc == 2 and len(err.strip().splitlines()) == 1
+    assert walker[0] in err and other in err and "total_steps=400" in err
+    freq = write_run(tmp_path, "freq", act="relu", returns=np.zeros((5, 2)), eval_freq=50)
+    rc, _, err = run_report(walker + [freq, "--out", tmp_path / "out"], capsys)
+    assert rc == 2 and "eval_freq=50" in err and freq in err
+
+
+def test_pooling_refuses_overlapping_seeds_and_different_hyperparameters(tmp_path, walker, capsys):
+    dup = write_run(tmp_path, "dup", act="swim", returns=SWIM[:, :1], first_seed=1)  # seed index 1 again
+    rc, _, err = run_report(walker + [dup, "--out", tmp_path / "o1"], capsys)
+    assert rc == 2 and "seed index 1" in err and dup in err and len(err.strip().splitlines()) == 1
+    ok = write_run(tmp_path, "other_base", act="swim", returns=SWIM[:, :1], first_seed=1, seed=7)
+    assert run_report(walker + [ok, "--out", tmp_path / "o2", "--n-boot", "200"], capsys)[0] == 0
+    big = write_run(tmp_path, "big", act="swim", returns=SWIM[:, :1], first_seed=5, hidden=(256, 256))
+    rc, _, err = run_report(walker + [big, "--out", tmp_path / "o3"], capsys)
+    assert rc == 2 and "agent.hidden" in err and big in err
+    rc, _, err = run_report(walker + [walker[0], "--out", tmp_path / "o4"], capsys)
+    assert rc == 2 and "given twice" in err
+
+
+def test_config_differences_between_activations_are_warned(tmp_path, capsys):
+    paths = [write_run(tmp_path, "a", act="swim"), write_run(tmp_path, "b", act="swish", returns=SWISH,
+                                                               precision="float64")]
+    out = tmp_path / "out"
+    assert run_report(paths + ["--out", out, "--n-boot", "200"], capsys)[0] == 0
+    md = (out / "REPORT.md").read_text()
+    assert "differ in precision: 'float32' vs 'float64'" in md
+
+
+def test_incomplete_runs_refused_or_truncated(tmp_path, walker, capsys):
+    part = write_run(tmp_path, "partial", act="relu", returns=SWISH[:2])  # 2 of 3 evaluations
+    rc, _, err = run_report(walker + [part, "--out", tmp_path / "o1"], capsys)
+    assert rc == 2 and "incomplete run (2 of 3 evaluations)" in err and "--allow-incomplete" in err
+    out = tmp_path / "o2"
+    rc, _, err = run_report(walker + [part, "--out", out, "--allow-incomplete", "--n-boot", "200"], capsys)
+    assert rc == 0, err
+    res = json.loads((out / "results.json").read_text())
+    w = res["envs"]["Walker2d-v5"]
+    assert w["steps"] == [0, 100] and w["truncated_to_step"] == 100
+    assert w["table2"]["swim"]["max_mean"] == 50.0 and w["table2"]["swim"]["final_mean"] == 50.0
+    assert "truncated to 100" in (out / "REPORT.md").read_text()
+
+
+def test_non_empty_out_refused_unless_force(tmp_path, walker, capsys):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "REPORT.md").write_text("precious")
+    (out / "keep.txt").write_text("mine")
+    rc, _, err = run_report(walker + ["--out", out], capsys)
+    assert rc == 2 and "not empty" in err and "--force" in err and len(err.strip().splitlines()) == 1
+    assert (out / "REPORT.md").read_text() == "precious" and sorted(os.listdir(out)) == ["REPORT.md", "keep.txt"]
+    rc, _, err = run_report(walker + ["--out", out, "--force", "--n-boot", "200"], capsys)
+    assert rc == 0, err
+    assert (out / "REPORT.md").read_text().startswith("# Swim vs Swish") and (out / "keep.txt").read_text() == "mine"
+    # an empty existing folder is fine without --force
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    assert run_report(walker + ["--out", empty, "--n-boot", "200"], capsys)[0] == 0
+
+
+def test_bad_bench_and_bad_arguments(tmp_path, walker, capsys):
+    bench = tmp_path / "b.json"
+    bench.write_text(json.dumps({"machine": {}, "elementwise": []}))
+    rc, _, err = run_report(walker + ["--bench", bench, "--out", tmp_path / "o"], capsys)
+    assert rc == 2 and "no actor_inference section" in err and not (tmp_path / "o").exists()
+    (tmp_path / "c.json").write_text("{not json")
+    rc, _, err = run_report(["--bench", tmp_path / "c.json", "--out", tmp_path / "o"], capsys)
+    assert rc == 2 and "unreadable JSON" in err and len(err.strip().splitlines()) == 1
+    with pytest.raises(SystemExit) as e:
+        report.main(["--out", str(tmp_path / "o")])
+    assert e.value.code == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "at least one RUN_DIR" in err
+
+
+def test_module_cli_exit_status(tmp_path, walker):
+    out = tmp_path / "out"
+    bad = os.path.join(str(tmp_path), "missing")
+    p = subprocess.run([sys.executable, "-m", "swim_jax.report", *walker, bad, "--out", str(out)],
+                       cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert p.returncode == 2 and p.stderr.strip() == f"report: error: {bad}: not a directory"
+    assert not out.exists()
+    p = subprocess.run([sys.executable, "-m", "swim_jax.report", *walker, "--out", str(out), "--n-boot", "200"],
+                       cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0, p.stderr
+    assert sorted(os.listdir(out)) == ["REPORT.md", "figure4.png", "figure4.svg", "results.json"]
