@@ -229,7 +229,10 @@ def render_markdown(groups, t2, imp, comps, t3, bench_meta, score: str, n_boot: 
               f"numpy default_rng seed {boot_seed}, so deterministic); the difference's CI resamples both "
               "samples independently. IQM: interquartile mean over seeds (drop ⌊n/4⌋ from each end). "
               "P(X > Y): over all seed pairs, ties count ½. Welch: unequal-variance t-test, "
-              "Welch–Satterthwaite df, two-sided p.", ""]
+              "Welch–Satterthwaite df, two-sided p. The per-seed *max* is biased upwards by evaluation noise "
+              "(a max over noisy evaluations); *auc* is the least noisy score. These rows are exploratory: "
+              "with 3 scores × 3 pairs per env some small p-values are expected by chance (no multiple-"
+              "comparison correction); the verdict below uses one score fixed in advance (`--score`).", ""]
         rows = []
         for env, per in comps.items():
             for pair, by_score in per.items():

@@ -13,6 +13,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.ticker import FuncFormatter  # noqa: E402
 
 COLORS = {"swim": "tab:red", "swish": "tab:blue", "relu": "tab:green"}
 NAMES = {"swim": "Swim", "swish": "Swish", "relu": "ReLU"}
@@ -24,6 +25,14 @@ def display_name(label: str) -> str:
         if label == k or label.startswith(k + "(") or label.startswith(k + "+"):
             return v + label[len(k):]
     return label
+
+
+def _steps_label(x, _pos=None) -> str:
+    if abs(x) >= 1e6:
+        return f"{x / 1e6:g}M"
+    if abs(x) >= 1e3:
+        return f"{x / 1e3:g}k"
+    return f"{x:g}"
 
 
 def figure4(groups: dict, paths: list[str]) -> None:
@@ -56,6 +65,7 @@ def figure4(groups: dict, paths: list[str]) -> None:
                 title += f" (truncated at {g.truncated_to_step} steps)"
             ax.set_title(title)
             ax.set_xlabel("environment steps")
+            ax.xaxis.set_major_formatter(FuncFormatter(_steps_label))
             ax.set_ylabel("average return")
             ax.grid(alpha=0.3)
             ax.legend(fontsize=8, loc="best")

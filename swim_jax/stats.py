@@ -294,8 +294,8 @@ def verdict(c: Comparison, x_name: str = "Swim", y_name: str = "Swish") -> str:
     direction = "higher" if c.diff > 0 else "lower" if c.diff < 0 else "equal"
     lo, hi = c.diff_ci
     p = c.welch.p_two_sided if c.welch is not None else float("nan")
-    observed = (f"{x_name}'s mean {c.score} score is {direction} than {y_name}'s by {abs(c.diff):.4g} "
-                f"(95% bootstrap CI of the difference [{lo:.4g}, {hi:.4g}], Welch p = {_fmt_p(p)}, "
+    observed = (f"{x_name}'s mean {c.score} score is {direction} than {y_name}'s by {_fmt_num(abs(c.diff))} "
+                f"(95% bootstrap CI of the difference [{_fmt_num(lo)}, {_fmt_num(hi)}], Welch p = {_fmt_p(p)}, "
                 f"P({x_name} > {y_name}) = {c.prob_improvement:.2f})")
     reasons = []
     if min(c.n_x, c.n_y) < MIN_SEEDS:
@@ -308,6 +308,10 @@ def verdict(c: Comparison, x_name: str = "Swim", y_name: str = "Swish") -> str:
         return f"Evidence too weak to conclude: {observed}; " + ", ".join(reasons) + "."
     better = "better" if c.diff > 0 else "worse"
     return f"{x_name} is {better} than {y_name} on this budget: {observed}."
+
+
+def _fmt_num(v: float) -> str:
+    return f"{v:.1f}" if abs(v) >= 10 else f"{v:.3g}"
 
 
 def _fmt_p(p: float) -> str:
