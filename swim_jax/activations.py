@@ -203,6 +203,7 @@ SWIM_VARIANTS: dict[str, Callable] = {
     "rsqrt": make_swim(lax.rsqrt, "swim_rsqrt"),
     "newton2": make_swim(lambda v: rsqrt_newton(v, 2), "swim_newton2"),
     "newton3": make_swim(lambda v: rsqrt_newton(v, 3), "swim_newton3"),
+    "newton4": make_swim(lambda v: rsqrt_newton(v, 4), "swim_newton4"),
     "newton2+shared-s": make_swim(lambda v: rsqrt_newton(v, 2), "swim_newton2_shared_s", share_s=True),
 }
 _swim_kernel = SWIM_VARIANTS["default"]
