@@ -353,6 +353,34 @@ def results_dict(groups, t2, imp, comps, t3, score, n_boot, boot_seed) -> dict:
     }
 
 
+def _json_safe(obj):
+    """NaN/inf → None (strict JSON), recursively; numpy scalars → Python numbers."""
+    if isinstance(obj, dict):
+        return {k: _json_safe(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_json_safe(v) for v in obj]
+    if isinstance(obj, (float, np.floating)):
+        return float(obj) if math.isfinite(obj) else None
+    if isinstance(obj, np.integer):
+        return int(obj)
+    return obj
+
+
+def summary_lines(res: dict) -> list[str]:
+    """Short stdout summary: per env, Swim vs Swish max-of-mean returns and the verdict."""
+    out = []
+    for env, e in res["envs"].items():
+        t2 = e["table2"]
+        if "swim" in t2 and "swish" in t2:
+            imp = e["improvement_pct"]["max"]
+            out.append(f"{env}: Swim {t2['swim']['max_mean']:.1f} ± {t2['swim']['max_std']:.1f} vs Swish "
+                       f"{t2['swish']['max_mean']:.1f} ± {t2['swish']['max_std']:.1f} (max of mean return, "
+                       f"{'n/a' if imp is None else f'{imp:+.1f}%'}) — {e['verdict']}")
+        else:
+            out.append(f"{env}: {', '.join(t2)} only; no Swim vs Swish comparison")
+    return out
+
+
 # ------------------------------------------------------------------------------------------------
 # CLI
 # ------------------------------------------------------------------------------------------------
@@ -423,7 +451,7 @@ def build(args, command: str) -> dict[str, bytes | str]:
     files["REPORT.md"] = render_markdown(groups, t2, imp, comps, t3, bench_meta, args.score, args.n_boot,
                                          args.boot_seed, command, has_figure=bool(groups))
     res = results_dict(groups, t2, imp, comps, t3, args.score, args.n_boot, args.boot_seed)
-    files["results.json"] = json.dumps(res, indent=1, allow_nan=True) + "\n"
+    files["results.json"] = json.dumps(_json_safe(res), indent=1, allow_nan=False) + "\n"
     return files
 
 
@@ -477,6 +505,8 @@ def main(argv=None) -> int:
     except ReportError as e:
         print(f"report: error: {e}", file=sys.stderr)
         return 2
+    for line in summary_lines(json.loads(files["results.json"])):
+        print(line)
     print(f"report: wrote {', '.join(sorted(files))} to {args.out}")
     return 0
 

@@ -170,6 +170,21 @@ def test_pooling_more_seeds_and_grouping_by_env(tmp_path, capsys):
     assert "Swim(k=0.75)" in md and "Hopper-v5**: no verdict" in md
 
 
+def test_single_seed_and_zero_baseline_edge_cases(tmp_path, capsys):
+    paths = [write_run(tmp_path, "a", act="swim", returns=np.array([[0.0], [2.0], [1.0]])),
+             write_run(tmp_path, "b", act="swish", returns=np.zeros((3, 1)))]
+    out = tmp_path / "out"
+    rc, stdout, err = run_report(paths + ["--out", out, "--n-boot", "200"], capsys)
+    assert rc == 0, err
+    res = json.loads((out / "results.json").read_text())  # strict JSON: NaN written as null
+    w = res["envs"]["Walker2d-v5"]
+    assert w["table2"]["swim"]["max_mean"] == 2.0 and w["table2"]["swim"]["max_std"] == 0.0
+    assert w["improvement_pct"]["max"] is None  # Swish mean 0: improvement undefined
+    assert w["comparisons"]["swim_vs_swish"]["max"]["welch"] is None
+    assert "Evidence too weak" in w["verdict"] and "no t-test possible" in w["verdict"]
+    assert "Walker2d-v5: Swim 2.0 ± 0.0 vs Swish 0.0 ± 0.0" in stdout
+
+
 def test_table3_from_bench_json(tmp_path, capsys):
     rows = [
         {"dtype": "float64", "env": "Walker2d", "activation": "swish", "mean_ms": 0.9, "std_ms": 0.1, "median_ms": 0.85},
