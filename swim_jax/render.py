@@ -289,7 +289,8 @@ class _Parser(argparse.ArgumentParser):
 
 
 def parse_args(argv):
-    p = _Parser(prog="python -m swim_jax.render", description=__doc__.split("\n")[0])
+    p = _Parser(prog="python -m swim_jax.render", description=__doc__,
+                formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("run_dir", metavar="RUN_DIR")
     p.add_argument("--seed", type=int, default=0, help="seed index of the run (default 0)")
     p.add_argument("--out", required=True, help="output video, .gif or .mp4")

@@ -392,7 +392,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 def parse_args(argv):
-    p = _Parser(prog="python -m swim_jax.report", description=__doc__.split("\n")[0],
+    p = _Parser(prog="python -m swim_jax.report", description=__doc__,
                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("runs", nargs="*", metavar="RUN_DIR", help="run folders from python -m swim_jax.train")
     p.add_argument("--out", required=True, help="output folder (must not exist or be empty, unless --force)")

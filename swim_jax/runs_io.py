@@ -114,7 +114,11 @@ def load_run(path: str) -> Run:
     ev_path = os.path.join(path, "evaluations.npy")
     for p in (cfg_path, ev_path):
         if not os.path.isfile(p):
-            raise RunError(f"{path}: missing {os.path.basename(p)} (not a swim_jax.train run folder?)")
+            inner = sorted(e for e in os.listdir(path)
+                           if os.path.isfile(os.path.join(path, e, "config.yaml")))
+            hint = (f"; it contains {len(inner)} run folder(s) such as {os.path.join(path, inner[0])}: "
+                    f"pass those instead" if inner else " (not a swim_jax.train run folder?)")
+            raise RunError(f"{path}: missing {os.path.basename(p)}{hint}")
     try:
         with open(cfg_path) as f:
             cfg = yaml.safe_load(f)

@@ -257,6 +257,13 @@ def test_corrupt_run_folder_exit_2_one_line_nothing_written(tmp_path, walker, ca
     assert [p for p in os.listdir(tmp_path) if p.startswith(".report-")] == []
 
 
+def test_parent_folder_of_runs_gets_a_hint(tmp_path, walker, capsys):
+    parent = os.path.dirname(walker[0])
+    rc, _, err = run_report([parent, "--out", tmp_path / "out"], capsys)
+    assert rc == 2 and len(err.strip().splitlines()) == 1
+    assert "missing config.yaml; it contains 2 run folder(s)" in err and "pass those instead" in err
+
+
 def test_budget_conflict_in_one_env_is_refused_naming_both_runs(tmp_path, walker, capsys):
     other = write_run(tmp_path, "long", act="relu", returns=np.zeros((5, 2)), total_steps=400)
     rc, _, err = run_report(walker + [other, "--out", tmp_path / "out"], capsys)
