@@ -285,8 +285,15 @@ def write_result(result: dict, out_dir: Path, prefix: str) -> Path:
     return path
 
 
-def _print_table(title: str, rows: list[dict], columns: list[str]) -> None:
-    print(f"\n{title}")
+def _print_table(title: str, rows: list[dict], columns: list[str], markdown: bool = False) -> None:
+    """Print rows as an aligned text table, or as a Markdown table (``markdown=True``)."""
+    print(f"\n{title}\n")
+    if markdown:
+        print("| " + " | ".join(columns) + " |")
+        print("|" + "---|" * len(columns))
+        for r in rows:
+            print("| " + " | ".join(_fmt(r.get(c)) for c in columns) + " |")
+        return
     widths = [max(len(c), *(len(_fmt(r.get(c))) for r in rows)) for c in columns]
     print("  ".join(c.ljust(w) for c, w in zip(columns, widths)))
     for r in rows:
@@ -295,6 +302,8 @@ def _print_table(title: str, rows: list[dict], columns: list[str]) -> None:
 
 def _fmt(v) -> str:
     if isinstance(v, float):
+        if v != 0 and abs(v) < 1e-3:
+            return f"{v:.2e}"
         return f"{v:.3f}" if abs(v) < 1e4 else f"{v:.0f}"
     if isinstance(v, list):
         return "x".join(map(str, v))
@@ -311,6 +320,10 @@ def _parse(argv, prog: str, description: str, sections: bool):
         default="wall",
         choices=["wall", "cpu"],
         help="wall: elapsed time (default); cpu: this process's CPU time, for a machine shared with other jobs",
+    )
+    p.add_argument("--markdown", action="store_true", help="print the tables as Markdown")
+    p.add_argument(
+        "--from-json", default=None, help="print the tables of an earlier result file instead of measuring"
     )
     p.add_argument("--out", default="runs/bench", help="folder for the JSON result (default runs/bench)")
     if sections:
@@ -331,44 +344,65 @@ def _parse(argv, prog: str, description: str, sections: bool):
     return args
 
 
+TABLES = {
+    "elementwise": (
+        "(a) elementwise, median µs per call [min–max], speed-up vs jax.nn.swish",
+        ["dtype", "shape", "mode", "pass", "activation", "median_us", "min_us", "max_us", "speedup_vs_jax_nn_swish"],
+    ),
+    "actor_inference": (
+        "(b) Table III protocol: actor forward on 256 states, each of the first calls after compilation, ms",
+        ["dtype", "env", "activation", "mean_ms", "std_ms", "median_ms", "improvement_pct_mean", "improvement_pct_median"],
+    ),
+    "td3_update": (
+        "(c) one TD3 update (256-256, batch 256; actor every 2nd), ms per update",
+        ["dtype", "activation", "median_ms", "min_ms", "max_ms", "ratio_vs_swish", "ratio_vs_relu"],
+    ),
+}
+
+
+def print_result(result: dict, markdown: bool = False) -> None:
+    """Print every section present in an activations result (from this run or a JSON file)."""
+    m = result.get("machine", {})
+    print(f"{m.get('cpu', '?')}, {m.get('cores', '?')} cores, jax {m.get('jax', '?')}; clock: {result.get('clock', 'wall')}")
+    print(f"command: {m.get('command', '?')}")
+    for key, (title, columns) in TABLES.items():
+        if key in result:
+            _print_table(title, result[key], columns, markdown)
+
+
 def main(argv: list[str]) -> int:
     """``python -m swim_jax.bench activations``: sections (a), (b), (c); JSON under --out."""
     args = _parse(argv, "swim_jax.bench activations", __doc__.split("\n")[0], sections=True)
+    if args.from_json:
+        try:
+            result = json.loads(Path(args.from_json).read_text())
+        except (OSError, ValueError) as exc:
+            print(f"swim_jax.bench activations: cannot read --from-json {args.from_json}: {exc}", file=sys.stderr)
+            return 2
+        print_result(result, args.markdown)
+        return 0
     with jax.enable_x64(True):  # float64 candidates need it; float32 ones name their dtype
-        return _run_activations(args)
+        result = _run_activations(args)
+    print_result(result, args.markdown)
+    path = write_result(result, Path(args.out), "activations")
+    print(f"\nwrote {path}")
+    return 0
 
 
-def _run_activations(args) -> int:
+def _run_activations(args) -> dict:
     repeats = args.repeats or (5 if args.quick else 21)
     result = {"machine": machine_info(), "repeats": repeats, "quick": args.quick, "clock": args.clock}
     if "a" in args.sections:
         shapes = [(256, 256)] if args.quick else [(256, 256), (4096, 4096)]
-        result["elementwise"] = rows = bench_elementwise(shapes, args.dtypes, repeats, args.clock)
-        _print_table(
-            "(a) elementwise, median µs per call [min–max], speed-up vs jax.nn.swish",
-            rows,
-            ["dtype", "shape", "mode", "pass", "activation", "median_us", "min_us", "max_us", "speedup_vs_jax_nn_swish"],
-        )
+        result["elementwise"] = bench_elementwise(shapes, args.dtypes, repeats, args.clock)
     if "b" in args.sections:
         envs = ["Hopper"] if args.quick else list(ENV_SIZES)
         calls = 20 if args.quick else 100
-        result["actor_inference"] = rows = bench_actor_inference(envs, args.dtypes, calls, clock=args.clock)
-        _print_table(
-            f"(b) Table III protocol: actor forward on 256 states, first {calls} calls, ms",
-            rows,
-            ["dtype", "env", "activation", "mean_ms", "std_ms", "median_ms", "improvement_pct_mean", "improvement_pct_median"],
-        )
+        result["actor_inference"] = bench_actor_inference(envs, args.dtypes, calls, clock=args.clock)
     if "c" in args.sections:
         kwargs = {"activations": ("relu", "swish", "swim")} if args.quick else {}
-        result["td3_update"] = rows = bench_td3_update(args.dtypes, repeats, clock=args.clock, **kwargs)
-        _print_table(
-            "(c) one TD3 update (256-256, batch 256; actor every 2nd), ms per update",
-            rows,
-            ["dtype", "activation", "median_ms", "min_ms", "max_ms", "ratio_vs_swish", "ratio_vs_relu"],
-        )
-    path = write_result(result, Path(args.out), "activations")
-    print(f"\nwrote {path}")
-    return 0
+        result["td3_update"] = bench_td3_update(args.dtypes, repeats, clock=args.clock, **kwargs)
+    return result
 
 
 def rsqrt_variants() -> dict:
@@ -424,6 +458,7 @@ def main_rsqrt(argv: list[str]) -> int:
         "inverse square root, float32: max relative error over every mantissa; median µs per call",
         rows,
         ["shape", "variant", "max_rel_error_f32", "median_us", "min_us", "max_us", "speedup_vs_lax_rsqrt"],
+        args.markdown,
     )
     path = write_result({"machine": machine_info(), "rows": rows}, Path(args.out), "rsqrt")
     print(f"\nwrote {path}")
