@@ -63,7 +63,10 @@ def test_bootstrap_ci_matches_a_plain_loop_with_the_same_draws_and_scipy_within_
     assert lo == pytest.approx(np.quantile(m2, 0.025), abs=0.25)
     assert hi == pytest.approx(np.quantile(m2, 0.975), abs=0.25)
     sps = pytest.importorskip("scipy.stats")
-    res = sps.bootstrap((x,), np.mean, n_resamples=20000, method="percentile", random_state=1)
+    import inspect
+
+    seed_kw = "rng" if "rng" in inspect.signature(sps.bootstrap).parameters else "random_state"
+    res = sps.bootstrap((x,), np.mean, n_resamples=20000, method="percentile", **{seed_kw: np.random.default_rng(1)})
     assert lo == pytest.approx(res.confidence_interval.low, abs=0.25)
     assert hi == pytest.approx(res.confidence_interval.high, abs=0.25)
 
