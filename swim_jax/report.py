@@ -272,7 +272,7 @@ def render_markdown(groups, t2, imp, comps, t3, bench_meta, score: str, n_boot: 
               "Improvement = (Swish − Swim) / Swim, the paper's definition (time saved by Swim). The paper's "
               "columns: its Table III (first 100 training iterations, ARM CPU, float64) — a different "
               "machine.", ""]
-        acts = [a for a in ("swim", "swish", "relu") if any(a in r["ms"] for r in t3)]
+        acts = [a for a in ("swish", "swim", "relu") if any(a in r["ms"] for r in t3)]  # the paper's order
         rows = []
         for r in t3:
             cells = [r["env"], r["dtype"]]

@@ -204,9 +204,9 @@ def test_table3_from_bench_json(tmp_path, capsys):
     assert t3[("Walker2d", "float64")]["improvement_pct"] == pytest.approx(100 * 0.15 / 0.75)  # 20%
     assert t3[("Ant", "float32")]["improvement_pct"] == pytest.approx(-20.0)
     md = (out / "REPORT.md").read_text()
-    assert ("| Walker2d | float64 | 0.750 ± 0.050 | 0.900 ± 0.100 | 0.500 ± 0.020 | +20.0% | Walker2d-v2 (float64, ARM) "
+    assert ("| Walker2d | float64 | 0.900 ± 0.100 | 0.750 ± 0.050 | 0.500 ± 0.020 | +20.0% | Walker2d-v2 (float64, ARM) "
             "| 0.810 ± 0.066 | 0.687 ± 0.077 | 17.9% | activations-x.json |") in md
-    assert "| Ant | float32 | 1.250 ± 0.100 | 1.000 ± 0.100 | — | -20.0% | — | — | — | — |" in md
+    assert "| Ant | float32 | 1.000 ± 0.100 | 1.250 ± 0.100 | — | -20.0% | — | — | — | — |" in md
     assert not (out / "figure4.png").exists()  # no runs, no figure
 
 
