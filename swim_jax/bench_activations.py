@@ -129,17 +129,22 @@ def bench_elementwise(shapes, dtypes, repeats: int, clock: str = "wall") -> list
     return rows
 
 
-def _actor_forward(activation: str, obs_dim: int, act_dim: int, dtype):
-    """A jitted TD3 actor forward (agents.td3's network) and its parameters."""
+def _td3_agent(activation: str, obs_dim: int, act_dim: int, dtype):
+    """agents.td3.TD3 with the reference config, the given activation, actions in [−1, 1]."""
     from agents.td3 import TD3, ActivationConfig, TD3Config
 
-    agent = TD3(
+    return TD3(
         TD3Config(activation=ActivationConfig(name=activation)),
         obs_dim=obs_dim,
         action_low=(-1.0,) * act_dim,
         action_high=(1.0,) * act_dim,
         dtype=dtype,
     )
+
+
+def _actor_forward(activation: str, obs_dim: int, act_dim: int, dtype):
+    """A jitted TD3 actor forward (agents.td3's network) and its parameters."""
+    agent = _td3_agent(activation, obs_dim, act_dim, dtype)
     params = agent.init(jax.random.key(0)).actor_target
     return jax.jit(agent.act), params
 
@@ -180,17 +185,10 @@ def _update_program(activation: str, dtype, obs_dim=17, act_dim=6, updates=10):
     ``activation`` is a registry name, or ``swim[<variant>]`` for a Swim kernel variant.
     """
     from agents.replay import Transition
-    from agents.td3 import TD3, ActivationConfig, TD3Config
 
     name, _, variant = activation.partition("[")
     variant = variant.rstrip("]") or "default"
-    agent = TD3(
-        TD3Config(activation=ActivationConfig(name=name)),
-        obs_dim=obs_dim,
-        action_low=(-1.0,) * act_dim,
-        action_high=(1.0,) * act_dim,
-        dtype=dtype,
-    )
+    agent = _td3_agent(name, obs_dim, act_dim, dtype)
     keys = jax.random.split(jax.random.key(2), 6)
     b = agent.config.batch_size
     batch = Transition(
