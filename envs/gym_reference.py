@@ -56,9 +56,11 @@ def record(env_id: str, n_steps: int, policy: str = "random", seed: int = 0,
         out["qvel"].append(np.array(d.qvel, dtype=np.float64, copy=True))
         out["qacc_warmstart"].append(np.array(d.qacc_warmstart, dtype=np.float64, copy=True))
         out["xpos"].append(np.array(d.xpos, dtype=np.float64, copy=True))
-        action = np.asarray(pol(obs, t, rng, nu), dtype=np.float32)
+        # f32-representable values passed as float64: Gymnasium would otherwise compute the
+        # control cost in float32 (np.square of a float32 action), a 1e-8-level difference
+        action = np.asarray(pol(obs, t, rng, nu), dtype=np.float32).astype(np.float64)
         obs, reward, terminated, _, _ = genv.step(action)
-        out["action"].append(action.astype(np.float64))
+        out["action"].append(action)
         out["obs"].append(np.array(obs, dtype=np.float64, copy=True))
         out["reward"].append(float(reward))
         out["terminated"].append(bool(terminated))

@@ -1,0 +1,144 @@
+"""Env throughput benchmark: batched MJX ``jit(scan(vmap(step)))`` vs native MuJoCo ``mj_step``.
+
+Entry point :func:`main` (``python -m swim_jax.bench envs ...`` or ``python -m envs.bench ...``).
+For each env and batch size: compile time of the scanned, vmapped step; env steps/s of MJX
+(median over repeats, ``batch * scan_len / seconds``); interleaved with it, native MuJoCo C on
+one core (same Gymnasium XML and frame skip, one ``mj_step(m, d, nstep=frame_skip)`` plus
+``mj_rnePostConstraint`` per env step, as Gymnasium does). Random uniform actions in [-1, 1].
+Writes JSON to ``runs/bench/envs-<UTC timestamp>.json``. XLA flags (e.g.
+``--xla_force_host_platform_device_count=2``) are read from the environment at start; with more
+than one JAX device and ``--shard``, the batch is split across devices.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import statistics
+import time
+from typing import Dict, List, Optional, Sequence
+
+import jax
+import jax.numpy as jnp
+import mujoco
+import numpy as np
+
+from envs.registry import ENV_IDS, make
+
+DEFAULT_ENVS = ("Hopper-v5", "Walker2d-v5", "HalfCheetah-v5", "Swimmer-v5", "Ant-v5")
+
+
+def native_steps_per_second(env, n_steps: int, seed: int = 0) -> float:
+    """Env steps/s of native MuJoCo C on the calling thread for ``env``'s XML and frame skip."""
+    m = env.mj_model
+    d = mujoco.MjData(m)
+    rng = np.random.default_rng(seed)
+    actions = rng.uniform(-1.0, 1.0, size=(n_steps, m.nu))
+    mujoco.mj_forward(m, d)
+    t0 = time.perf_counter()
+    for a in actions:
+        d.ctrl[:] = a
+        mujoco.mj_step(m, d, nstep=env.frame_skip)
+        mujoco.mj_rnePostConstraint(m, d)
+    return n_steps / (time.perf_counter() - t0)
+
+
+def make_rollout(env, batch: int, scan_len: int, shard: bool):
+    """Jitted ``f(states, key) -> states`` running ``scan_len`` vmapped env steps.
+
+    Returns ``(f, states0, key)``; states are sharded over all JAX devices if ``shard``.
+    """
+    vstep = jax.vmap(env.step)
+
+    def rollout(states, key):
+        def body(s, k):
+            a = jax.random.uniform(k, (batch, env.action_size), env.dtype, -1.0, 1.0)
+            return vstep(s, a), None
+        return jax.lax.scan(body, states, jax.random.split(key, scan_len))[0]
+
+    states = jax.jit(jax.vmap(env.reset))(jax.random.split(jax.random.PRNGKey(0), batch))
+    if shard and jax.device_count() > 1 and batch % jax.device_count() == 0:
+        mesh = jax.sharding.Mesh(np.array(jax.devices()), ("b",))
+        sh = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec("b"))
+        states = jax.device_put(states, sh)
+    return jax.jit(rollout), states, jax.random.PRNGKey(1)
+
+
+def bench_env(env_id: str, batches: Sequence[int], scan_len: int, repeats: int,
+              native_steps: int, options: Dict, shard: bool) -> List[Dict]:
+    """Measure one env at every batch size; native runs interleaved with each MJX repeat."""
+    env = make(env_id, **options)
+    rows = []
+    for batch in batches:
+        f, states, key = make_rollout(env, batch, scan_len, shard)
+        t0 = time.perf_counter()
+        compiled = f.lower(states, key).compile()
+        compile_s = time.perf_counter() - t0
+        jax.block_until_ready(compiled(states, key))  # warm-up
+        mjx_rates, native_rates = [], []
+        for r in range(repeats):
+            native_rates.append(native_steps_per_second(env, native_steps, seed=r))
+            t0 = time.perf_counter()
+            jax.block_until_ready(compiled(states, jax.random.PRNGKey(r + 2)))
+            mjx_rates.append(batch * scan_len / (time.perf_counter() - t0))
+        mjx_med, nat_med = statistics.median(mjx_rates), statistics.median(native_rates)
+        row = dict(env=env_id, batch=batch, scan_len=scan_len, compile_s=round(compile_s, 2),
+                   mjx_steps_per_s=round(mjx_med, 1), native_steps_per_s=round(nat_med, 1),
+                   ratio_vs_one_native_core=round(mjx_med / nat_med, 4),
+                   mjx_all=[round(x, 1) for x in mjx_rates],
+                   native_all=[round(x, 1) for x in native_rates])
+        print(json.dumps(row), flush=True)
+        rows.append(row)
+    return rows
+
+
+def _opt_int(s: str) -> Optional[int]:
+    return None if s.lower() == "none" else int(s)
+
+
+def main(argv: Optional[Sequence[str]] = None) -> Dict:
+    """CLI: benchmark env throughput; returns the result dict it also writes as JSON.
+
+    Flags: --envs (comma list, default the five v5 envs), --batches (default 1,8,64,256,1024),
+    --scan-len (default 50), --repeats (3), --native-steps (2000), --solver-iterations /
+    --ls-iterations (int or 'none' for the XML's 100 / 50; defaults 8 / 16), --shard, --out-dir.
+    """
+    p = argparse.ArgumentParser(prog="swim_jax.bench envs", description=__doc__.split("\n")[0])
+    p.add_argument("--envs", default=",".join(DEFAULT_ENVS))
+    p.add_argument("--batches", default="1,8,64,256,1024")
+    p.add_argument("--scan-len", type=int, default=50)
+    p.add_argument("--repeats", type=int, default=3)
+    p.add_argument("--native-steps", type=int, default=2000)
+    p.add_argument("--solver-iterations", type=_opt_int, default=8)
+    p.add_argument("--ls-iterations", type=_opt_int, default=16)
+    p.add_argument("--shard", action="store_true")
+    p.add_argument("--out-dir", default=os.path.join("runs", "bench"))
+    args = p.parse_args(argv)
+    env_ids = [e for e in args.envs.split(",") if e]
+    for e in env_ids:
+        if e not in ENV_IDS:
+            raise SystemExit(f"unknown env id {e!r}; valid ids: {', '.join(ENV_IDS)}")
+    options = dict(solver_iterations=args.solver_iterations, ls_iterations=args.ls_iterations)
+    batches = [int(b) for b in args.batches.split(",")]
+    rows = []
+    for e in env_ids:
+        rows += bench_env(e, batches, args.scan_len, args.repeats, args.native_steps, options,
+                          args.shard)
+    stamp = time.strftime("%Y%m%dT%H%M%SZ", time.gmtime())
+    result = dict(
+        benchmark="envs", timestamp=stamp, options=options, shard=args.shard,
+        jax=jax.__version__, mujoco=mujoco.__version__, x64=bool(jax.config.jax_enable_x64),
+        devices=[str(d) for d in jax.devices()], cpu_count=os.cpu_count(),
+        xla_flags=os.environ.get("XLA_FLAGS", ""), machine=platform.platform(), rows=rows)
+    os.makedirs(args.out_dir, exist_ok=True)
+    path = os.path.join(args.out_dir, f"envs-{stamp}.json")
+    with open(path, "w") as fh:
+        json.dump(result, fh, indent=1)
+    print(f"wrote {path}")
+    return result
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,95 @@
+"""Contract tests for envs.make / ENV_IDS / step_autoreset / time limit (real MJX physics)."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import envs
+
+
+def test_registry_ids():
+    assert envs.ENV_IDS == ("Hopper-v5", "Walker2d-v5", "HalfCheetah-v5", "Swimmer-v5", "Ant-v5",
+                            "Hopper-v4", "Walker2d-v4")
+
+
+def test_unknown_id_and_option_raise_one_line():
+    with pytest.raises(ValueError) as e:
+        envs.make("Hopper-v2")
+    msg = str(e.value)
+    assert "\n" not in msg and all(i in msg for i in envs.ENV_IDS)
+    with pytest.raises(ValueError) as e:
+        envs.make("Hopper-v5", frame_skip=3)
+    msg = str(e.value)
+    assert "\n" not in msg and "frame_skip" in msg and "max_episode_steps" in msg
+
+
+def test_dtype_option_checked_against_x64():
+    with pytest.raises(ValueError):
+        envs.make("Hopper-v5", dtype=jnp.float64)  # default run is float32
+
+
+@pytest.mark.parametrize("env_id,obs_size,act_size,dt", [
+    ("Hopper-v5", 11, 3, 0.008), ("Walker2d-v5", 17, 6, 0.008), ("HalfCheetah-v5", 17, 6, 0.05),
+    ("Swimmer-v5", 8, 2, 0.04), ("Ant-v5", 105, 8, 0.05), ("Hopper-v4", 11, 3, 0.008),
+    ("Walker2d-v4", 17, 6, 0.008)])
+def test_sizes_bounds_and_gymnasium_spaces(env_id, obs_size, act_size, dt):
+    import gymnasium as gym
+    env = envs.make(env_id)
+    genv = gym.make(env_id)
+    assert env.observation_size == obs_size == genv.observation_space.shape[0]
+    assert env.action_size == act_size == genv.action_space.shape[0]
+    assert env.dt == pytest.approx(dt) and env.dt == pytest.approx(genv.unwrapped.dt)
+    np.testing.assert_array_equal(np.asarray(env.action_low), genv.action_space.low)
+    np.testing.assert_array_equal(np.asarray(env.action_high), genv.action_space.high)
+    assert env.backend == "mjx"
+    genv.close()
+
+
+@pytest.fixture(scope="module")
+def short_hopper():
+    """Hopper-v5 with a 3-step time limit and a jitted, vmapped step_autoreset (compiled once)."""
+    env = envs.make("Hopper-v5", max_episode_steps=3)
+    reset = jax.jit(jax.vmap(env.reset))
+    step = jax.jit(jax.vmap(lambda s, a, k: envs.step_autoreset(env, s, a, k)))
+    return env, reset, step
+
+
+def test_truncation_and_autoreset_keep_final_obs(short_hopper):
+    env, reset, step = short_hopper
+    n = 2
+    state = reset(jax.random.split(jax.random.PRNGKey(0), n))
+    assert state.obs.dtype == jnp.float32 and state.done.dtype == jnp.float32
+    zero_a = jnp.zeros((n, env.action_size))
+    keys = jax.random.split(jax.random.PRNGKey(1), 3 * n).reshape(3, n, 2)
+    prev_obs = state.obs
+    for t in range(3):
+        state, final_obs = step(state, zero_a, keys[t])
+        # the true reached obs is continuous with the previous one (one 8 ms step)
+        assert np.abs(np.asarray(final_obs - prev_obs))[:, :5].max() < 0.05
+        if t < 2:
+            assert np.all(np.asarray(state.done) == 0)
+            np.testing.assert_array_equal(state.obs, final_obs)
+            assert np.all(np.asarray(state.info["steps"]) == t + 1)
+        prev_obs = final_obs
+    assert np.all(np.abs(np.asarray(state.reward) - 1.0) < 0.5)  # healthy reward of the step
+    # third step hit the limit without terminating (zero action: hopper stands at t=3)
+    np.testing.assert_array_equal(np.asarray(state.done), 1.0)
+    np.testing.assert_array_equal(np.asarray(state.info["truncation"]), 1.0)
+    np.testing.assert_array_equal(np.asarray(state.info["steps"]), 0.0)
+    fresh = reset(keys[2])
+    np.testing.assert_allclose(state.obs, fresh.obs, atol=1e-7)
+    assert not np.allclose(np.asarray(state.obs), np.asarray(final_obs))
+
+
+def test_termination_is_not_truncation(short_hopper):
+    env, reset, step = short_hopper
+    state = reset(jax.random.split(jax.random.PRNGKey(2), 1))
+    # push the hopper's angle out of (-0.2, 0.2): the next step terminates
+    data = state.pipeline_state
+    state = state.replace(pipeline_state=data.replace(qpos=data.qpos.at[:, 2].set(0.5)))
+    state, final_obs = step(state, jnp.zeros((1, env.action_size)),
+                            jax.random.split(jax.random.PRNGKey(3), 1))
+    assert float(state.done[0]) == 1.0 and float(state.info["truncation"][0]) == 0.0
+    assert float(final_obs[0, 1]) > 0.2  # the true terminal observation (angle) is kept
+    assert abs(float(state.obs[0, 1])) <= 5e-3  # continued from a fresh reset

@@ -1,0 +1,128 @@
+"""Equivalence of our MJX envs with Gymnasium's own envs (MuJoCo C), float32.
+
+Teacher forcing: Gymnasium is run for 1000 steps of random actions and 1000 steps of a
+deterministic sine controller (resetting when it terminates); every recorded pre-step physics
+state is put into our env and stepped with the same action, all 2000 at once (one jitted vmap
+call per env). Observation, reward and terminated must match Gymnasium's outputs of that step.
+Bounds from issue 3: <= 1e-4 absolute in float32 (float64 in test_envs_equivalence_f64.py).
+"""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import envs
+from envs import gym_reference as gr
+
+ATOL_F32 = 1e-4
+N_STEPS = 1000
+
+
+def teacher_forced_errors(env_id, **options):
+    """Max abs obs / reward errors and terminated mismatches over both recorded trajectories."""
+    env = envs.make(env_id, **options)
+    recs = [gr.record(env_id, N_STEPS, pol, seed=7) for pol in ("random", "sine")]
+    rec = {k: np.concatenate([r[k] for r in recs]) for k in recs[0]}
+    st = gr.run_teacher_forced(env, rec)
+    obs = np.asarray(st.obs, np.float64)
+    scale = np.maximum(1.0, np.abs(rec["obs"]))
+    return {
+        "obs": float(np.abs(obs - rec["obs"]).max()),
+        "obs_rel": float((np.abs(obs - rec["obs"]) / scale).max()),
+        "reward": float(np.abs(np.asarray(st.reward, np.float64) - rec["reward"]).max()),
+        "term_mismatch": int(((np.asarray(st.done) > 0) != rec["terminated"]).sum()),
+        "n_terminated": int(rec["terminated"].sum()),
+        "dtype": str(env.dtype),
+    }
+
+
+@pytest.mark.parametrize("env_id", envs.ENV_IDS)
+def test_teacher_forced_float32(env_id, record_property):
+    err = teacher_forced_errors(env_id)
+    record_property("errors", err)
+    print(env_id, err)
+    assert err["dtype"] == "float32"
+    assert err["term_mismatch"] == 0, err
+    if env_id in ("Hopper-v5", "Hopper-v4", "Walker2d-v5", "Walker2d-v4", "Ant-v5"):
+        assert err["n_terminated"] > 0  # the random trajectory falls: termination steps compared
+    assert err["reward"] <= ATOL_F32, err
+    assert err["obs"] <= ATOL_F32, err
+
+
+# ---------------------------------------------------------------- health rules, one by one
+def _boundary_states(env_id, init_qpos, init_qvel):
+    """(qpos, qvel) pairs just inside / on / outside every health boundary of ``env_id``."""
+    eps, base_v, cases = 1e-3, init_qvel, []
+
+    def with_q(i, v):
+        q = init_qpos.copy()
+        q[i] = v
+        cases.append((q, base_v.copy()))
+
+    def with_v(i, v):
+        qv = base_v.copy()
+        qv[i] = v
+        cases.append((init_qpos.copy(), qv))
+
+    if env_id.startswith("Hopper"):
+        for v in (0.7 - eps, 0.7, 0.7 + eps, 5.0):
+            with_q(1, v)
+        for v in (-0.2 - eps, -0.2, -0.2 + eps, 0.2 - eps, 0.2, 0.2 + eps):
+            with_q(2, v)
+        for v in (-100.0 - eps, -100.0, -99.9, 99.9, 100.0, 100.0 + eps):
+            with_q(4, v)       # state[2:] includes joint angles
+            with_v(3, v)       # ... and every qvel
+    elif env_id.startswith("Walker2d"):
+        for v in (0.8 - eps, 0.8, 0.8 + eps, 2.0 - eps, 2.0, 2.0 + eps):
+            with_q(1, v)
+        for v in (-1.0 - eps, -1.0, -1.0 + eps, 1.0 - eps, 1.0, 1.0 + eps):
+            with_q(2, v)
+    elif env_id == "Ant-v5":
+        for v in (0.2 - eps, 0.2, 0.2 + eps, 1.0 - eps, 1.0, 1.0 + eps):
+            with_q(2, v)
+        with_q(7, np.nan)
+        with_v(5, np.inf)
+    return cases
+
+
+@pytest.mark.parametrize("env_id", ["Hopper-v5", "Walker2d-v5", "Ant-v5"])
+def test_every_health_rule_matches_gymnasium(env_id):
+    import gymnasium as gym
+    env = envs.make(env_id)
+    genv = gym.make(env_id).unwrapped
+    cases = _boundary_states(env_id, np.array(genv.init_qpos), np.array(genv.init_qvel))
+    expected = []
+    for q, v in cases:
+        genv.set_state(q, v)
+        expected.append(bool(genv.is_healthy))
+    qs = jnp.asarray(np.stack([c[0] for c in cases]), env.dtype)
+    vs = jnp.asarray(np.stack([c[1] for c in cases]), env.dtype)
+    healthy = jax.jit(jax.vmap(
+        lambda q, v: env.is_healthy(env._data0.replace(qpos=q, qvel=v))))(qs, vs)
+    assert list(np.asarray(healthy)) == expected
+    assert True in expected and False in expected
+    genv.close()
+
+
+# ---------------------------------------------------------------- reset distribution
+@pytest.mark.parametrize("env_id", ["Hopper-v5", "Walker2d-v5", "HalfCheetah-v5", "Swimmer-v5",
+                                    "Ant-v5"])
+def test_reset_distribution_matches_gymnasium(env_id):
+    import gymnasium as gym
+    n = 2000
+    genv = gym.make(env_id).unwrapped
+    g_obs = np.stack([genv.reset(seed=s)[0] for s in range(n)])
+    genv.close()
+    env = envs.make(env_id)
+    states = jax.jit(jax.vmap(env.reset))(jax.random.split(jax.random.PRNGKey(0), n))
+    o_obs = np.asarray(states.obs, np.float64)
+    assert o_obs.shape == g_obs.shape
+    g_mean, g_std = g_obs.mean(0), g_obs.std(0)
+    o_mean, o_std = o_obs.mean(0), o_obs.std(0)
+    # means agree within 5 standard errors; stds within 10 %; constant dims stay constant
+    se = np.maximum(g_std, 1e-12) / np.sqrt(n)
+    assert np.all(np.abs(o_mean - g_mean) <= 5 * se + 1e-7), (o_mean - g_mean) / se
+    np.testing.assert_allclose(o_std, g_std, rtol=0.1, atol=1e-7)
+    np.testing.assert_array_equal(np.asarray(states.done), 0.0)
+    np.testing.assert_array_equal(np.asarray(states.info["steps"]), 0.0)
