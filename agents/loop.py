@@ -50,14 +50,15 @@ class TrainState(NamedTuple):
     bad_step: Array  # int32[len(CHECKED)]: first step where the quantity was non-finite, or -1
 
 
-def seed_keys(base_seed: int, seed_index: Array) -> tuple[Array, Array, Array, Array]:
-    """(init, train, env, eval) keys of seed ``seed_index``: split(fold_in(PRNGKey(base), i), 4)."""
+def seed_keys(base_seed, seed_index: Array) -> tuple[Array, Array, Array, Array]:
+    """(init, train, env, eval) keys of seed ``seed_index``: split(fold_in(PRNGKey(base), i), 4).
+    ``base_seed`` may be a Python int or a traced integer scalar."""
     k = jax.random.fold_in(jax.random.PRNGKey(base_seed), seed_index)
     k_init, k_train, k_env, k_eval = jax.random.split(k, 4)
     return k_init, k_train, k_env, k_eval
 
 
-def init_state(agent: TD3, env, replay_size: int, base_seed: int, seed_index: Array) -> TrainState:
+def init_state(agent: TD3, env, replay_size: int, base_seed, seed_index: Array) -> TrainState:
     """Fresh per-seed state: initial params, empty buffer, env reset with the seed's env key."""
     k_init, k_train, k_env, k_eval = seed_keys(base_seed, seed_index)
     dt = agent.dtype

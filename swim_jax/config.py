@@ -53,6 +53,9 @@ class Config:
     out_dir: str = "runs"
     keep_checkpoints: int = 3
     name: str = ""  # run name (defaults to the config file name)
+    # seeds=1 runs a duplicate second lane so the seed is bit-identical to the same seed in a
+    # multi-seed run (see swim_jax.train.num_lanes); false: half the work, float-rounding drift
+    pad_single_seed: bool = True
 
 
 # ------------------------------------------------------------------------------------------------
@@ -220,8 +223,11 @@ def validate(cfg: Config) -> Config:
     for k, v in positive.items():
         if v < 1:
             raise ConfigError(f"{k} must be >= 1, got {v}")
-    if cfg.first_seed < 0 or cfg.learning_starts < 0:
-        raise ConfigError("first_seed and learning_starts must be >= 0")
+    for k in ("seed", "first_seed", "learning_starts"):
+        if getattr(cfg, k) < 0:
+            raise ConfigError(f"{k} must be >= 0, got {getattr(cfg, k)}")
+    if cfg.seed >= 2**32 or cfg.first_seed + cfg.seeds >= 2**31:
+        raise ConfigError("seed must be < 2**32 and first_seed + seeds < 2**31")
     if cfg.total_steps % cfg.eval_freq:
         raise ConfigError(f"total_steps ({cfg.total_steps}) must be a multiple of eval_freq ({cfg.eval_freq})")
     if not cfg.agent.hidden or any(h < 1 for h in cfg.agent.hidden):

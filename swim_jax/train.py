@@ -91,6 +91,53 @@ def build(cfg: Config):
     return env, eval_env, agent
 
 
+@dataclass
+class Programs:
+    """The jitted functions of one training program (see agents/loop.py)."""
+
+    env: object
+    eval_env: object
+    agent: object
+    init_fn: object  # (base_seed uint32, seed_ids int32[L]) -> TrainState[L]
+    chunk_fn: object  # (TrainState[L], t0 int32) -> TrainState[L]; argument donated
+    eval_fn: object  # (actor[L], eval_keys[L], eval_index int32, random bool) -> returns[L, E]
+
+
+_PROGRAMS: dict = {}
+
+
+def num_lanes(cfg: Config) -> int:
+    """Width of the vmapped seed axis: ``seeds``, or 2 for a padded single-seed run.
+
+    Why pad: with a unit vmap axis XLA CPU simplifies the batched MJX physics differently, which
+    changes float rounding (~1e-5 after ~10 steps), so seed i alone would drift from seed i in a
+    multi-seed run. Lanes ≥ 2 compute each seed bit-identically (tests/test_train.py)."""
+    return 2 if cfg.seeds == 1 and cfg.pad_single_seed else cfg.seeds
+
+
+def programs(cfg: Config) -> Programs:
+    """Build (or reuse, within this process) the env, agent and jitted functions for ``cfg``.
+
+    The compiled program depends only on the fields in the cache key, not on seeds' identities,
+    total_steps or outputs, so e.g. a resumed or re-run config in the same process compiles nothing."""
+    import jax
+
+    from agents import loop
+
+    _setup_precision(cfg)
+    key = (cfg.env, cfg.agent, cfg.learning_starts, cfg.eval_freq, cfg.eval_episodes,
+           cfg.replay_size, cfg.precision)
+    if key not in _PROGRAMS:
+        env, eval_env, agent = build(cfg)
+        init_fn = jax.jit(jax.vmap(
+            lambda base, i: loop.init_state(agent, env, cfg.replay_size, base, i), in_axes=(None, 0)))
+        chunk_fn = jax.jit(loop.make_chunk_fn(agent, env, cfg.learning_starts, cfg.eval_freq),
+                           donate_argnums=0)
+        eval_fn = jax.jit(loop.make_eval_fn(agent, eval_env, cfg.eval_episodes, cfg.env.max_episode_steps))
+        _PROGRAMS[key] = Programs(env, eval_env, agent, init_fn, chunk_fn, eval_fn)
+    return _PROGRAMS[key]
+
+
 def new_run_dir(cfg: Config) -> str:
     stamp = time.strftime("%Y%m%d-%H%M%S", time.gmtime())
     base = os.path.join(cfg.out_dir, f"{cfg.name}-{stamp}")
@@ -113,8 +160,8 @@ def _fmt_time(sec: float) -> str:
 # ------------------------------------------------------------------------------------------------
 
 def write_evaluations(run_dir: str, cfg: Config, evals: np.ndarray, n_done: int) -> None:
-    """Write the first ``n_done`` evaluations (CSV + .npy), overwriting earlier versions."""
-    ev = evals[:n_done]
+    """Write the first ``n_done`` evaluations of the real seeds (CSV + .npy), overwriting."""
+    ev = evals[:n_done, : cfg.seeds]
     means = ev.mean(axis=2)  # [n, seeds]
     np.save(os.path.join(run_dir, "evaluations.npy"), means)
     np.save(os.path.join(run_dir, "evaluations_episodes.npy"), ev)
@@ -178,7 +225,7 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None]) ->
     from swim_jax.checkpoint import Checkpointer
 
     t_start = time.time()
-    env, eval_env, agent = build(cfg)
+    prog = programs(cfg)
     os.makedirs(run_dir, exist_ok=True)
     cfg_path = os.path.join(run_dir, "config.yaml")
     if not resume:
@@ -187,13 +234,14 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None]) ->
 
     n_chunks = cfg.total_steps // cfg.eval_freq
     n_evals = n_chunks + 1
-    seed_ids = jnp.arange(cfg.first_seed, cfg.first_seed + cfg.seeds, dtype=jnp.int32)
-    init_fn = jax.jit(jax.vmap(lambda i: loop.init_state(agent, env, cfg.replay_size, cfg.seed, i)))
-    chunk_fn = jax.jit(loop.make_chunk_fn(agent, env, cfg.learning_starts, cfg.eval_freq), donate_argnums=0)
-    eval_fn = jax.jit(loop.make_eval_fn(agent, eval_env, cfg.eval_episodes, cfg.env.max_episode_steps))
+    lanes = num_lanes(cfg)
+    seed_ids = np.arange(cfg.first_seed, cfg.first_seed + cfg.seeds)
+    seed_ids = jnp.asarray(np.resize(seed_ids, lanes), jnp.int32)  # [i] -> [i, i] when padded
+    base_seed = jnp.asarray(cfg.seed, jnp.uint32)
+    init_fn, chunk_fn, eval_fn = prog.init_fn, prog.chunk_fn, prog.eval_fn
     ckpt = Checkpointer(os.path.join(run_dir, "checkpoints"), keep=cfg.keep_checkpoints)
 
-    evals = np.full((n_evals, cfg.seeds, cfg.eval_episodes), np.nan)
+    evals = np.full((n_evals, lanes, cfg.eval_episodes), np.nan)  # lanes >= seeds
     eval_time = 0.0
 
     def evaluate(states, j):
@@ -207,19 +255,20 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None]) ->
     if resume and ckpt.latest_step() is not None:
         step = ckpt.latest_step()
         # evals are stored in the compute dtype (exact: every return was computed in it)
-        template = (jax.eval_shape(init_fn, seed_ids), jax.ShapeDtypeStruct(evals.shape, jnp.asarray(evals).dtype))
+        template = (jax.eval_shape(init_fn, base_seed, seed_ids), jax.ShapeDtypeStruct(evals.shape, jnp.asarray(evals).dtype))
         states, saved_evals = ckpt.restore(step, template)
         start_chunk = step // cfg.eval_freq
         evals[:] = np.asarray(saved_evals)
         log(f"resumed {run_dir} at step {step}")
     else:
-        states = init_fn(seed_ids)
+        states = init_fn(base_seed, seed_ids)
         evaluate(states, 0)
         if resume:
             log(f"no checkpoint in {run_dir}; starting from step 0")
     write_evaluations(run_dir, cfg, evals, start_chunk + 1)
 
     train_time, steps_timed, first_chunk_time = 0.0, 0, None
+    loop_walls: list[float] = []  # whole chunk iterations (train + eval + checkpoint) for the ETA
     for c in range(start_chunk, n_chunks):
         t0 = time.time()
         states = chunk_fn(states, jnp.asarray(c * cfg.eval_freq, jnp.int32))
@@ -242,10 +291,11 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None]) ->
         evaluate(states, c + 1)
         ckpt.save(step, (states, jnp.asarray(evals)))
         write_evaluations(run_dir, cfg, evals, c + 2)
-        means = evals[c + 1].mean(axis=1)
+        means = evals[c + 1, : cfg.seeds].mean(axis=1)
         rate = cfg.eval_freq * cfg.seeds / dt
-        per_step = (train_time / steps_timed) if steps_timed else dt / cfg.eval_freq
-        eta = per_step * (n_chunks - c - 1) * cfg.eval_freq
+        loop_walls.append(time.time() - t0)
+        typical = np.mean(loop_walls[1:]) if len(loop_walls) > 1 else loop_walls[0]
+        eta = typical * (n_chunks - c - 1)
         log(
             f"step {step:>8d}/{cfg.total_steps} | {rate:8.0f} env-steps/s ({rate / cfg.seeds:.0f}/seed"
             f"{', incl. compile' if c == start_chunk else ''}) | "
@@ -253,7 +303,8 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None]) ->
             f"elapsed {_fmt_time(time.time() - t_start)} | ETA {_fmt_time(eta)}"
         )
 
-    final_actor = _actor_npz(os.path.join(run_dir, "final_policy.npz"), states.agent.actor)
+    final_actor = _actor_npz(os.path.join(run_dir, "final_policy.npz"),
+                             jax.tree.map(lambda x: x[: cfg.seeds], states.agent.actor))
     wall = time.time() - t_start
     timing = {
         "wall_time_s": wall,
@@ -272,7 +323,7 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None]) ->
     with open(os.path.join(run_dir, "timing.json"), "w") as f:
         json.dump(timing, f, indent=2)
     ckpt.close()
-    return RunResult(run_dir, evals, final_actor, states, chunk_fn, eval_fn, timing)
+    return RunResult(run_dir, evals[:, : cfg.seeds], final_actor, states, chunk_fn, eval_fn, timing)
 
 
 # ------------------------------------------------------------------------------------------------

@@ -53,7 +53,25 @@ class CompileCounter:
 
 
 @pytest.fixture(scope="module")
-def vmapped(tmp_path_factory):
+def jax_cache(tmp_path_factory):
+    """A persistent compilation cache for this module's compiles, so the resume test's
+    subprocesses load the fixture's executables instead of compiling them again (minutes on a
+    shared 2-core CPU). Switched off again after the module."""
+    from jax._src import compilation_cache as cc  # reset_cache: re-read the dir option
+
+    path = str(tmp_path_factory.mktemp("jax_cache"))
+    old = (jax.config.jax_compilation_cache_dir, jax.config.jax_persistent_cache_min_compile_time_secs)
+    jax.config.update("jax_compilation_cache_dir", path)
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
+    cc.reset_cache()
+    yield path
+    jax.config.update("jax_compilation_cache_dir", old[0])
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", old[1])
+    cc.reset_cache()
+
+
+@pytest.fixture(scope="module")
+def vmapped(tmp_path_factory, jax_cache):
     """2 seeds, 4 chunks; compile events counted from the end of the first chunk on."""
     counter = CompileCounter()
     lines: list[str] = []
@@ -134,10 +152,16 @@ def test_transitions_truncation_bootstraps_termination_does_not(vmapped):
 
 
 def test_single_seed_equals_its_slot_in_the_vmapped_run(vmapped, tmp_path):
+    """seeds=1 first_seed=1 (a padded 2-lane program: the same executable, nothing compiled)
+    reproduces seed 1 of the 2-seed run bit for bit: evaluations and final actor."""
     res = train.run(tiny("seeds=1", "first_seed=1"), str(tmp_path / "single"), log=lambda s: None)
+    assert res.evaluations.shape == (5, 1, 5) and res.final_actor["params/body/head/bias"].shape[0] == 1
     np.testing.assert_array_equal(res.evaluations[:, 0], vmapped.evaluations[:, 1])
     for k, v in res.final_actor.items():
         np.testing.assert_array_equal(v[0], vmapped.final_actor[k][1], err_msg=k)
+    assert res.chunk_fn is vmapped.chunk_fn and res.chunk_fn._cache_size() == 1
+    ev = np.load(os.path.join(res.run_dir, "evaluations.npy"))
+    assert ev.shape == (5, 1)
 
 
 def test_nan_detection_names_seed_step_and_quantity(vmapped):
@@ -211,8 +235,8 @@ def test_config_files_and_overrides_resolve():
 # resume after SIGKILL
 # ------------------------------------------------------------------------------------------------
 
-def test_resume_after_sigkill_matches_uninterrupted_run(vmapped, tmp_path):
-    env = dict(os.environ, JAX_COMPILATION_CACHE_DIR=str(tmp_path / "jax_cache"),
+def test_resume_after_sigkill_matches_uninterrupted_run(vmapped, jax_cache, tmp_path):
+    env = dict(os.environ, JAX_COMPILATION_CACHE_DIR=jax_cache,
                JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS="0", PYTHONUNBUFFERED="1")
     out = tmp_path / "out"
     cmd = [sys.executable, "-m", "swim_jax.train", f"config={CONFIG}", *TINY, f"out_dir={out}"]
@@ -238,3 +262,19 @@ def test_resume_after_sigkill_matches_uninterrupted_run(vmapped, tmp_path):
     got = np.load(os.path.join(run_dir, "final_policy.npz"))
     for k, v in vmapped.final_actor.items():
         np.testing.assert_array_equal(got[k], v, err_msg=k)
+
+
+def test_float64_precision_builds_everything_in_float64():
+    """precision=float64: env physics, observations, params, Adam state and replay are all f64
+    (init program only; the full f64 chunk compiles too slowly for the default run)."""
+    prev = bool(jax.config.jax_enable_x64)
+    try:
+        cfg = tiny("precision=float64", "seeds=2", "replay_size=100")
+        prog = train.programs(cfg)
+        assert jax.config.jax_enable_x64
+        st = prog.init_fn(jnp.asarray(0, jnp.uint32), jnp.arange(2, dtype=jnp.int32))
+        floats = [x for x in jax.tree.leaves(st) if jnp.issubdtype(x.dtype, jnp.floating)]
+        assert floats and all(x.dtype == jnp.float64 for x in floats)
+        assert st.env_state.obs.dtype == jnp.float64 and st.buffer.data.obs.dtype == jnp.float64
+    finally:
+        jax.config.update("jax_enable_x64", prev)
