@@ -52,7 +52,9 @@ class Checkpointer:
             for i, x in enumerate(leaves) if np.prod(np.shape(x)) > 0
         }
         flat = self.manager.restore(int(step), args=ocp.args.StandardRestore(abstract))
-        out = [flat[f"{i:05d}"] if f"{i:05d}" in flat else jnp.zeros(np.shape(x), x.dtype)
+        # Orbax returns arrays committed to a device; jit keys its cache on that, so a committed
+        # state would compile the training program again. Rebuild them as ordinary arrays.
+        out = [jnp.asarray(np.asarray(flat[f"{i:05d}"])) if f"{i:05d}" in flat else jnp.zeros(np.shape(x), x.dtype)
                for i, x in enumerate(leaves)]
         return jax.tree.unflatten(treedef, out)
 

@@ -257,6 +257,9 @@ def test_resume_after_sigkill_matches_uninterrupted_run(vmapped, jax_cache, tmp_
                        capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stderr[-2000:]
     assert "resumed" in r.stdout
+    import json
+    timing = json.load(open(os.path.join(run_dir, "timing.json")))
+    assert timing["chunk_compiles"] == 1 and timing["eval_compiles"] == 1  # restored state: no recompiles
     ev = np.load(os.path.join(run_dir, "evaluations_episodes.npy"))
     np.testing.assert_array_equal(ev, vmapped.evaluations)
     got = np.load(os.path.join(run_dir, "final_policy.npz"))
