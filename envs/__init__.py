@@ -4,8 +4,11 @@ Public contract: ``make(env_id, **options)``, ``ENV_IDS``, ``step_autoreset(env,
 reset_key) -> (next_state, final_obs)``. See docs/ENVS.md.
 """
 
+from envs import mjx_compat
 from envs.autoreset import step_autoreset
 from envs.base import LocomotionEnv, State
 from envs.registry import ENV_IDS, make
+
+mjx_compat.install()
 
 __all__ = ["ENV_IDS", "LocomotionEnv", "State", "make", "step_autoreset"]
