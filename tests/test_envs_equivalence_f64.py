@@ -7,11 +7,10 @@ of the session keeps float32. The envs are built while x64 is on (the physics dt
 import jax
 import pytest
 
-from test_envs_equivalence import teacher_forced_errors
+from test_envs_equivalence import env_params, teacher_forced_errors
 
 ATOL_F64 = 1e-8
 # the default run checks the two tasks the TD3 work starts with; the rest are marked slow
-FAST = ("Hopper-v5", "HalfCheetah-v5")
 ALL = ("Hopper-v5", "Walker2d-v5", "HalfCheetah-v5", "Swimmer-v5", "Ant-v5", "Hopper-v4",
        "Walker2d-v4")
 
@@ -24,8 +23,7 @@ def x64():
     jax.config.update("jax_enable_x64", prev)
 
 
-@pytest.mark.parametrize("env_id", [e if e in FAST else pytest.param(e, marks=pytest.mark.slow)
-                                    for e in ALL])
+@pytest.mark.parametrize("env_id", env_params(ALL))
 def test_teacher_forced_float64(env_id, x64, record_property):
     err = teacher_forced_errors(env_id)
     record_property("errors", err)
