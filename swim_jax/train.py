@@ -294,7 +294,8 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None]) ->
         means = evals[c + 1, : cfg.seeds].mean(axis=1)
         rate = cfg.eval_freq * cfg.seeds / dt
         loop_walls.append(time.time() - t0)
-        typical = np.mean(loop_walls[1:]) if len(loop_walls) > 1 else loop_walls[0]
+        # recent iterations: the learning phase is much slower than the uniform-random warm-up
+        typical = np.mean(loop_walls[1:][-3:]) if len(loop_walls) > 1 else loop_walls[0]
         eta = typical * (n_chunks - c - 1)
         log(
             f"step {step:>8d}/{cfg.total_steps} | {rate:8.0f} env-steps/s ({rate / cfg.seeds:.0f}/seed"
