@@ -79,8 +79,20 @@ def _type_name(tp) -> str:
     return getattr(tp, "__name__", str(tp)).replace("typing.", "")
 
 
+def _number(value):
+    """YAML 1.1 reads ``1e30`` / ``3e-4`` (no dot) as strings; accept them as numbers."""
+    if isinstance(value, str):
+        try:
+            return float(value)
+        except ValueError:
+            return value
+    return value
+
+
 def _coerce(value, tp, path: str):
     origin = typing.get_origin(tp)
+    if tp in (int, float):
+        value = _number(value)
     if tp is bool:
         if isinstance(value, bool):
             return value

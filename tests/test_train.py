@@ -199,6 +199,10 @@ def test_config_files_and_overrides_resolve():
     for env in ["walker", "hopper", "cheetah", "swimmer", "ant"]:
         for act in ["swim", "swish", "relu"]:
             assert f"{env}_{act}" in names
+    e = cfgmod.resolve("walker_swim", ["agent.actor_lr=1e-3", "total_steps=2e5", "agent.critic_lr=3.0e-4"])
+    assert (e.agent.actor_lr, e.total_steps, e.agent.critic_lr) == (1e-3, 200000, 3e-4)
+    with pytest.raises(cfgmod.ConfigError, match="expected int"):
+        cfgmod.resolve("walker_swim", ["seeds=1.5"])
     c = cfgmod.resolve("walker_swim", ["seeds=5", "total_steps=200000", "agent.activation.k=0.75",
                                        "precision=float64", "env.id=Hopper-v5"])
     assert (c.seeds, c.total_steps, c.agent.activation.k, c.precision, c.env.id) == (5, 200000, 0.75, "float64", "Hopper-v5")
