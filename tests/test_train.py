@@ -231,8 +231,9 @@ def test_resume_after_sigkill_matches_uninterrupted_run(tmp_path):
     """Uninterrupted CLI run vs a CLI run SIGKILLed after its first checkpoint and resumed with
     ``--resume``: identical evaluations (every episode) and final actor parameters, and the
     resumed process compiles each program once. All three processes share a persistent
-    compilation cache, i.e. they run the same executables (see the report in the commit log:
-    executables compiled in different processes are not guaranteed to round identically)."""
+    compilation cache (the later two load the first one's executables instead of compiling);
+    the reference is a CLI run rather than the in-process fixture so that the envs/agents code
+    cannot change between reference and resume in a working tree that others edit."""
     env = dict(os.environ, JAX_COMPILATION_CACHE_DIR=str(tmp_path / "jax_cache"),
                JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS="0", PYTHONUNBUFFERED="1")
     ref = _cli([f"config={CONFIG}", *TINY, f"out_dir={tmp_path / 'ref'}"], env)
