@@ -32,7 +32,10 @@ class AntV5(LocomotionEnv):
     needs_post_constraint = True
 
     def _contact_forces(self, data):
-        return jnp.clip(data.cfrc_ext, *CONTACT_FORCE_RANGE)
+        # MJX 3.17+ keeps cfrc_ext in the JAX implementation fields (public access is deprecated)
+        impl = getattr(data, "_impl", None)
+        cfrc = getattr(impl, "cfrc_ext", None) if impl is not None else None
+        return jnp.clip(data.cfrc_ext if cfrc is None else cfrc, *CONTACT_FORCE_RANGE)
 
     def observation(self, data):
         """Gymnasium Ant ``_get_obs``: qpos[2:], qvel, clipped cfrc_ext[1:] flattened."""
