@@ -39,7 +39,8 @@ def main(argv: list[str] | None = None) -> int:
             file=sys.stderr,
         )
         return 2
-    return run(rest) or 0
+    status = run(rest)
+    return status if isinstance(status, int) else 0  # envs.bench.main returns its result dict
 
 
 if __name__ == "__main__":
