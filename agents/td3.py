@@ -101,12 +101,10 @@ class TD3:
     def action_dim(self) -> int:
         return len(self.action_low)
 
-    @property
-    def actor_net(self) -> Actor:
+    def _network_options(self) -> dict:
+        """Options shared by the actor and the critics: widths, activation, precision."""
         a = self.config.activation
-        return Actor(
-            action_low=self.action_low,
-            action_high=self.action_high,
+        return dict(
             hidden=tuple(self.config.hidden),
             activation=a.name,
             activation_params=a.params(),
@@ -115,15 +113,12 @@ class TD3:
         )
 
     @property
+    def actor_net(self) -> Actor:
+        return Actor(action_low=self.action_low, action_high=self.action_high, **self._network_options())
+
+    @property
     def critic_net(self) -> TwinCritic:
-        a = self.config.activation
-        return TwinCritic(
-            hidden=tuple(self.config.hidden),
-            activation=a.name,
-            activation_params=a.params(),
-            learnable=a.learnable,
-            dtype=self.dtype,
-        )
+        return TwinCritic(**self._network_options())
 
     @property
     def actor_tx(self) -> optax.GradientTransformation:
