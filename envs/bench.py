@@ -119,7 +119,7 @@ def main(argv: Optional[Sequence[str]] = None) -> Dict:
     env_ids = [e for e in args.envs.split(",") if e]
     for e in env_ids:
         if e not in ENV_IDS:
-            raise SystemExit(f"unknown env id {e!r}; valid ids: {', '.join(ENV_IDS)}")
+            p.exit(2, f"swim_jax.bench envs: unknown env id {e!r}; valid ids: {', '.join(ENV_IDS)}\n")
     options = dict(solver_iterations=args.solver_iterations, ls_iterations=args.ls_iterations)
     batches = [int(b) for b in args.batches.split(",")]
     rows = []

@@ -75,3 +75,23 @@ def test_plots_cli_refuses_a_file_as_output_folder(tmp_path):
     )
     assert proc.returncode == 2 and "is not a folder" in proc.stderr
     assert target.read_text() == "keep me"
+
+
+def test_env_benchmark_rejects_an_unknown_env_with_exit_2(tmp_path):
+    proc = subprocess.run(
+        [sys.executable, "-m", "swim_jax.bench", "envs", "--envs", "Bogus-v0", "--out-dir", str(tmp_path / "o")],
+        capture_output=True,
+        text=True,
+    )
+    assert proc.returncode == 2
+    assert "unknown env id 'Bogus-v0'; valid ids: " in proc.stderr and "Hopper-v5" in proc.stderr
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.slow
+def test_env_benchmark_runs_through_the_bench_cli(tmp_path):
+    args = ["envs", "--envs", "Hopper-v5", "--batches", "2", "--scan-len", "2", "--repeats", "1"]
+    assert bench.main([*args, "--native-steps", "20", "--out-dir", str(tmp_path)]) == 0
+    (path,) = tmp_path.glob("envs-*.json")
+    rows = json.loads(path.read_text())["rows"]
+    assert rows and all(r["env"] == "Hopper-v5" for r in rows)
