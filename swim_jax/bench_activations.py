@@ -309,9 +309,10 @@ def _fmt(v) -> str:
 
 
 def _parse(argv, prog: str, description: str, sections: bool):
+    """Options of both benchmarks; ``sections=True`` adds the activations-only ones
+    (--sections, --dtypes, --from-json). Bad values: one line, exit status 2."""
     p = argparse.ArgumentParser(prog=prog, description=description)
     p.add_argument("--quick", action="store_true", help="small sizes and few repeats (a smoke run, ~1 min)")
-    p.add_argument("--dtypes", default="float32,float64", help="comma list of float32, float64")
     p.add_argument("--repeats", type=int, default=None, help="timed repeats per candidate (default 21; quick 5)")
     p.add_argument(
         "--clock",
@@ -320,25 +321,24 @@ def _parse(argv, prog: str, description: str, sections: bool):
         help="wall: elapsed time (default); cpu: this process's CPU time, for a machine shared with other jobs",
     )
     p.add_argument("--markdown", action="store_true", help="print the tables as Markdown")
-    p.add_argument(
-        "--from-json", default=None, help="print the tables of an earlier result file instead of measuring"
-    )
     p.add_argument("--out", default="runs/bench", help="folder for the JSON result (default runs/bench)")
     if sections:
         p.add_argument("--sections", default="a,b,c", help="comma list of a (elementwise), b (actor), c (update)")
+        p.add_argument("--dtypes", default="float32,float64", help="comma list of float32, float64")
+        p.add_argument(
+            "--from-json", default=None, help="print the tables of an earlier result file instead of measuring"
+        )
     args = p.parse_args(argv)
-    dtypes = [d.strip() for d in args.dtypes.split(",") if d.strip()]
-    bad = [d for d in dtypes if d not in DTYPES]
-    if bad or not dtypes:
-        p.exit(2, f"{prog}: invalid --dtypes {args.dtypes!r}; valid: float32, float64\n")
+    if args.repeats is not None and args.repeats < 1:
+        p.exit(2, f"{prog}: invalid --repeats {args.repeats}; it must be >= 1\n")
     if sections:
+        dtypes = [d.strip() for d in args.dtypes.split(",") if d.strip()]
+        if not dtypes or any(d not in DTYPES for d in dtypes):
+            p.exit(2, f"{prog}: invalid --dtypes {args.dtypes!r}; valid: float32, float64\n")
         secs = [s.strip() for s in args.sections.split(",") if s.strip()]
         if not secs or any(s not in ("a", "b", "c") for s in secs):
             p.exit(2, f"{prog}: invalid --sections {args.sections!r}; valid: a, b, c\n")
-        args.sections = secs
-    if args.repeats is not None and args.repeats < 1:
-        p.exit(2, f"{prog}: invalid --repeats {args.repeats}; it must be >= 1\n")
-    args.dtypes = dtypes
+        args.dtypes, args.sections = dtypes, secs
     return args
 
 
