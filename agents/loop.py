@@ -58,8 +58,10 @@ def seed_keys(base_seed, seed_index: Array) -> tuple[Array, Array, Array, Array]
     return k_init, k_train, k_env, k_eval
 
 
-def init_state(agent: TD3, env, replay_size: int, base_seed, seed_index: Array) -> TrainState:
-    """Fresh per-seed state: initial params, empty buffer, env reset with the seed's env key."""
+def init_state(agent: TD3, env, replay_size: int, base_seed, seed_index: Array, hparams=None) -> TrainState:
+    """Fresh per-seed state: initial params, empty buffer, env reset with the seed's env key.
+    ``hparams``: this lane's sweep values (``TD3.with_hparams``; a learnable k starts at its value)."""
+    agent = agent.with_hparams(hparams or {})
     k_init, k_train, k_env, k_eval = seed_keys(base_seed, seed_index)
     dt = agent.dtype
     return TrainState(
@@ -111,8 +113,10 @@ def env_step(agent: TD3, env, learning_starts: int, s: TrainState, t: Array):
     return s, k_update
 
 
-def train_step(agent: TD3, env, learning_starts: int, s: TrainState, t: Array) -> TrainState:
-    """One env step and (from ``learning_starts`` on) one TD3 update for one seed at global step t."""
+def train_step(agent: TD3, env, learning_starts: int, s: TrainState, t: Array, hparams=None) -> TrainState:
+    """One env step and (from ``learning_starts`` on) one TD3 update for one seed at global step t.
+    ``hparams``: this lane's sweep values (see ``TD3.with_hparams``); None/empty = ``agent``'s config."""
+    agent = agent.with_hparams(hparams or {})
     s, k_update = env_step(agent, env, learning_starts, s, t)
     k_sample, k_td3 = jax.random.split(k_update)
     it = t - learning_starts + 1
@@ -136,13 +140,16 @@ def train_step(agent: TD3, env, learning_starts: int, s: TrainState, t: Array) -
 
 
 def make_chunk_fn(agent: TD3, env, learning_starts: int, num_steps: int):
-    """``chunk(states, t0) -> states``: ``num_steps`` env steps t0 … t0+num_steps−1 for all seeds
-    (states batched on axis 0; t0 an int32 scalar shared by the seeds). Jit it once."""
+    """``chunk(states, t0, hparams) -> states``: ``num_steps`` env steps t0 … t0+num_steps−1 for all
+    lanes (states batched on axis 0; t0 an int32 scalar shared by the lanes; ``hparams`` a dict of
+    per-lane sweep values ``{path: [L]}``, empty for a plain multi-seed run). Jit it once."""
 
-    def chunk(states: TrainState, t0: Array) -> TrainState:
+    def chunk(states: TrainState, t0: Array, hparams=None) -> TrainState:
+        hparams = {} if hparams is None else hparams
+
         def body(carry, i):
             t = (t0 + i).astype(jnp.int32)
-            carry = jax.vmap(lambda s: train_step(agent, env, learning_starts, s, t))(carry)
+            carry = jax.vmap(lambda s, h: train_step(agent, env, learning_starts, s, t, h))(carry, hparams)
             return carry, None
 
         states, _ = jax.lax.scan(body, states, jnp.arange(num_steps, dtype=jnp.int32))
@@ -152,15 +159,17 @@ def make_chunk_fn(agent: TD3, env, learning_starts: int, num_steps: int):
 
 
 def make_eval_fn(agent: TD3, env, episodes: int, max_steps: int):
-    """``evaluate(actor_params[S], eval_keys[S], eval_index, random_policy) -> returns[S, episodes]``.
+    """``evaluate(actor_params[S], eval_keys[S], eval_index, random_policy, hparams) -> returns[S, episodes]``.
 
     Episode e of seed s starts from ``env.reset(split(fold_in(eval_key_s, eval_index), episodes)[e])``;
     actions are μ_s(obs), or U(low, high) when the (traced, bool) ``random_policy`` is true, the
     uniform baseline through the same compiled program. All S×episodes envs step together until
     every one is done (or ``max_steps``); an episode's return sums its rewards up to and including
-    its terminal step (later rewards are masked, also if non-finite)."""
+    its terminal step (later rewards are masked, also if non-finite). ``hparams``: per-lane sweep
+    values ``{path: [S]}`` (the actor of a swept k uses its lane's k), empty/None for none."""
 
-    def evaluate(actor_params, eval_keys: Array, eval_index: Array, random_policy=False) -> Array:
+    def evaluate(actor_params, eval_keys: Array, eval_index: Array, random_policy=False, hparams=None) -> Array:
+        hparams = {} if hparams is None else hparams
         keys = jax.vmap(lambda k: jax.random.split(jax.random.fold_in(k, eval_index), episodes))(eval_keys)
         act_keys = jax.vmap(jax.vmap(lambda k: jax.random.fold_in(k, 1)))(keys)
         states = jax.vmap(jax.vmap(env.reset))(keys)
@@ -178,7 +187,7 @@ def make_eval_fn(agent: TD3, env, episodes: int, max_steps: int):
             split = jax.vmap(jax.vmap(jax.random.split))(ak)
             ak, sub = split[:, :, 0], split[:, :, 1]
             a_rand = jax.vmap(jax.vmap(agent.random_action))(sub)
-            a_pol = jax.vmap(agent.act)(actor_params, st.obs)
+            a_pol = jax.vmap(lambda p, o, h: agent.with_hparams(h).act(p, o))(actor_params, st.obs, hparams)
             a = jnp.where(random_policy, a_rand, a_pol)
             st = jax.vmap(jax.vmap(env.step))(st, a)
             ret = ret + jnp.where(done, jnp.zeros_like(st.reward), st.reward)

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
-from typing import Any, NamedTuple, Sequence
+from typing import Any, Mapping, NamedTuple, Sequence
 
 import jax
 import jax.numpy as jnp
@@ -43,9 +43,24 @@ class ActivationConfig:
     beta: float = 1.0
     learnable: bool = False
 
-    def params(self) -> dict[str, float]:
-        """The registry parameters this activation takes (e.g. {"k": 0.5} for swim, {} for relu)."""
-        return {f: float(getattr(self, f)) for f in _ACTIVATION_PARAM_FIELDS.get(self.name, ())}
+    def params(self) -> dict[str, Any]:
+        """The registry parameters this activation takes (e.g. {"k": 0.5} for swim, {} for relu).
+        A value set by :meth:`TD3.with_hparams` stays a (traced) array; config values are floats."""
+        return {f: _as_param(getattr(self, f)) for f in _ACTIVATION_PARAM_FIELDS.get(self.name, ())}
+
+
+def _as_param(v):
+    return v if isinstance(v, jax.Array) else float(v)
+
+
+def sweepable_fields(activation: str) -> tuple[str, ...]:
+    """Float fields of :class:`TD3Config` that may differ between the lanes of one compiled program
+    (sweep axes), as paths relative to the agent config: learning rates, γ, τ, the three noise
+    scales and the activation's own parameter (``activation.k`` for swim, ``activation.beta`` for
+    swish). Integer/structural fields (widths, batch size, policy_freq) change shapes or control
+    flow and cannot be swept."""
+    own = tuple(f"activation.{f}" for f in _ACTIVATION_PARAM_FIELDS.get(activation, ()))
+    return ("actor_lr", "critic_lr", "discount", "tau", "policy_noise", "noise_clip", "expl_noise") + own
 
 
 @dataclass(frozen=True)
@@ -127,6 +142,23 @@ class TD3:
     @property
     def critic_tx(self) -> optax.GradientTransformation:
         return optax.adam(self.config.critic_lr)
+
+    def with_hparams(self, hparams: Mapping[str, Array]) -> "TD3":
+        """This agent with config fields replaced by per-lane values, e.g. ``{"tau": t,
+        "activation.k": k}`` (paths from :func:`sweepable_fields`; values may be traced scalars).
+        Inside a vmapped program each lane builds its own agent this way, so one compiled program
+        trains every point of a hyperparameter sweep. An empty mapping returns ``self``."""
+        if not hparams:
+            return self
+        c = self.config
+        act_changes, top_changes = {}, {}
+        for path, value in hparams.items():
+            if path.startswith("activation."):
+                act_changes[path.split(".", 1)[1]] = value
+            else:
+                top_changes[path] = value
+        activation = dataclasses.replace(c.activation, **act_changes)
+        return dataclasses.replace(self, config=dataclasses.replace(c, activation=activation, **top_changes))
 
     def _low_high(self):
         return jnp.asarray(self.action_low, self.dtype), jnp.asarray(self.action_high, self.dtype)

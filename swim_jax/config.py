@@ -9,7 +9,10 @@ raises ``ConfigError`` with ONE line naming the valid choices.
 
 from __future__ import annotations
 
+import collections.abc
 import dataclasses
+import itertools
+import math
 import os
 import typing
 from dataclasses import dataclass, field
@@ -56,6 +59,9 @@ class Config:
     # seeds=1 runs a duplicate second lane so the seed is bit-identical to the same seed in a
     # multi-seed run (see swim_jax.train.num_lanes); false: half the work, float-rounding drift
     pad_single_seed: bool = True
+    # hyperparameter sweep: {"agent.activation.k": (0.25, 0.5, 1.0), ...}; the grid (cartesian
+    # product) × seeds trains as lanes of one program (python -m swim_jax.sweep); empty = no sweep
+    sweep: Mapping[str, tuple[float, ...]] = field(default_factory=dict)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -69,6 +75,8 @@ def to_dict(cfg) -> dict:
         v = getattr(cfg, f.name)
         if dataclasses.is_dataclass(v):
             v = to_dict(v)
+        elif isinstance(v, Mapping):
+            v = {k: list(x) for k, x in v.items()}
         elif isinstance(v, tuple):
             v = list(v)
         out[f.name] = v
@@ -117,6 +125,31 @@ def _coerce(value, tp, path: str):
     raise ConfigError(f"{path}: expected {_type_name(tp)}, got {value!r} ({type(value).__name__})")
 
 
+def _flatten_paths(d: Mapping, prefix: str = "") -> dict:
+    out = {}
+    for k, v in d.items():
+        if isinstance(v, Mapping):
+            out.update(_flatten_paths(v, f"{prefix}{k}."))
+        else:
+            out[f"{prefix}{k}"] = v
+    return out
+
+
+def _coerce_sweep(value, path: str) -> dict[str, tuple[float, ...]]:
+    """``{"agent": {"tau": [..]}}`` or ``{"agent.tau": [..]}`` → ``{"agent.tau": (floats)}``."""
+    if value is None:
+        return {}
+    if not isinstance(value, Mapping):
+        raise ConfigError(f"{path}: expected a mapping of config keys to value lists, e.g. "
+                          f"{path}.agent.activation.k=[0.25,0.5,1], got {value!r}")
+    out = {}
+    for key, values in _flatten_paths(value).items():
+        if not isinstance(values, (list, tuple)) or not values:
+            raise ConfigError(f"{path}.{key}: expected a non-empty list of numbers such as [0.25,0.5,1], got {values!r}")
+        out[key] = tuple(_coerce(v, float, f"{path}.{key}[{i}]") for i, v in enumerate(values))
+    return out
+
+
 def from_dict(cls, data: Mapping[str, Any], prefix: str = ""):
     """Build dataclass ``cls`` from a nested dict; unknown keys and wrong types raise ConfigError."""
     hints = typing.get_type_hints(cls)
@@ -136,6 +169,8 @@ def from_dict(cls, data: Mapping[str, Any], prefix: str = ""):
         tp = hints[name]
         if dataclasses.is_dataclass(tp):
             kwargs[name] = from_dict(tp, data[name] if data[name] is not None else {}, f"{prefix}{name}.")
+        elif typing.get_origin(tp) in (collections.abc.Mapping, dict):
+            kwargs[name] = _coerce_sweep(data[name], prefix + name)
         else:
             kwargs[name] = _coerce(data[name], tp, prefix + name)
     return cls(**kwargs)
@@ -244,7 +279,60 @@ def validate(cfg: Config) -> Config:
         raise ConfigError(f"total_steps ({cfg.total_steps}) must be a multiple of eval_freq ({cfg.eval_freq})")
     if not cfg.agent.hidden or any(h < 1 for h in cfg.agent.hidden):
         raise ConfigError(f"agent.hidden must be a non-empty list of positive widths, got {list(cfg.agent.hidden)}")
+    _validate_sweep(cfg)
     return cfg
+
+
+def sweepable_keys(cfg: Config) -> tuple[str, ...]:
+    """Config keys that can be sweep axes for this config (``agent.`` + ``sweepable_fields``)."""
+    from agents.td3 import sweepable_fields
+
+    return tuple(f"agent.{f}" for f in sweepable_fields(cfg.agent.activation.name))
+
+
+def _validate_sweep(cfg: Config) -> None:
+    valid = sweepable_keys(cfg)
+    for key, values in cfg.sweep.items():
+        if key not in valid:
+            raise ConfigError(f"sweep.{key} cannot be swept (activation {cfg.agent.activation.name}); "
+                              f"valid sweep keys: {', '.join(valid)}")
+        if len(set(values)) != len(values):
+            raise ConfigError(f"sweep.{key}: values must be distinct, got {list(values)}")
+    for point in sweep_points(cfg):
+        pc = point_config(cfg, point)
+        try:
+            from swim_jax.activations import validate_params
+
+            validate_params(pc.agent.activation.name, pc.agent.activation.params())
+        except ValueError as e:
+            raise ConfigError(f"sweep point {point_label(point)}: {e}") from None
+        bad = [k for k, v in point.items() if not math.isfinite(v) or (v < 0 if k != "agent.discount" else not 0 <= v <= 1)]
+        if bad:
+            raise ConfigError(f"sweep point {point_label(point)}: {bad[0]} must be finite and >= 0 (discount in [0, 1])")
+
+
+def sweep_points(cfg: Config) -> list[dict[str, float]]:
+    """The sweep grid in lane order: the cartesian product of ``cfg.sweep``'s value lists, the
+    first key varying slowest; ``[{}]`` (one point, no changes) when there is no sweep."""
+    keys = list(cfg.sweep)
+    return [dict(zip(keys, combo)) for combo in itertools.product(*(cfg.sweep[k] for k in keys))]
+
+
+def point_label(point: Mapping[str, float]) -> str:
+    """``{"agent.activation.k": 0.25, "agent.tau": 0.01}`` → ``"k=0.25,tau=0.01"`` (folder-safe)."""
+    return ",".join(f"{k.rsplit('.', 1)[-1]}={v:g}" for k, v in point.items()) or "default"
+
+
+def point_config(cfg: Config, point: Mapping[str, float]) -> Config:
+    """``cfg`` with the point's values set and no sweep: what a plain run of that point would use."""
+    agent = cfg.agent
+    for key, value in point.items():
+        path = key.split(".")[1:]  # drop "agent"
+        if path[0] == "activation":
+            agent = dataclasses.replace(agent, activation=dataclasses.replace(agent.activation, **{path[1]: value}))
+        else:
+            agent = dataclasses.replace(agent, **{path[0]: value})
+    return dataclasses.replace(cfg, agent=agent, sweep={})
 
 
 def resolve(config: str | None, overrides: list[str], config_dir: str = CONFIG_DIR) -> Config:

@@ -100,6 +100,10 @@ def load_policy(run_dir: str, seed: int):
 
     from swim_jax import config as cfgmod
 
+    if os.path.isdir(os.path.join(run_dir, "points")) and os.path.isfile(os.path.join(run_dir, "sweep.csv")):
+        points = sorted(os.listdir(os.path.join(run_dir, "points")))
+        raise RenderError(f"{run_dir} is a sweep; render one of its points, e.g. "
+                          f"{os.path.join(run_dir, 'points', points[0] if points else '<label>')}")
     for name in ("config.yaml", "final_policy.npz"):
         if not os.path.isfile(os.path.join(run_dir, name)):
             raise RenderError(f"{run_dir}: missing {name} (not a finished swim_jax.train run folder?)")

@@ -450,9 +450,33 @@ def build(args, command: str) -> dict[str, bytes | str]:
                     files[os.path.basename(p)] = f.read()
     files["REPORT.md"] = render_markdown(groups, t2, imp, comps, t3, bench_meta, args.score, args.n_boot,
                                          args.boot_seed, command, has_figure=bool(groups))
+    if groups:
+        files["REPORT.md"] += _sweep_section(groups, files)
     res = results_dict(groups, t2, imp, comps, t3, args.score, args.n_boot, args.boot_seed)
     files["results.json"] = json.dumps(_json_safe(res), indent=1, allow_nan=False) + "\n"
     return files
+
+
+def _sweep_section(groups, files: dict) -> str:
+    """Return-vs-parameter figure (sweep.png/.svg added to ``files``) and table, for every activation
+    run with ≥ 2 values of its parameter in one env; '' when there is none."""
+    from swim_jax.report_figure import parameter_series, sweep_figure
+
+    series = parameter_series(groups)
+    if not series:
+        return ""
+    with tempfile.TemporaryDirectory() as tmp:
+        paths = [os.path.join(tmp, "sweep.png"), os.path.join(tmp, "sweep.svg")]
+        sweep_figure(series, paths)
+        for p in paths:
+            with open(p, "rb") as f:
+                files[os.path.basename(p)] = f.read()
+    rows = [[env, _name(act), f"{v:g}", _pm(float(final.mean()), float(final.std(ddof=0))), f"{best:.2f}", str(final.size)]
+            for (env, act, key), pts in series.items() for v, final, best in pts]
+    return ("\n## Return vs activation parameter (sweeps)\n\n"
+            "Final = last evaluation, mean ± std over seeds; best = maximum of the mean-over-seeds curve.\n\n"
+            + _md_table(["env", "activation", "parameter", "final return", "best mean", "seeds"], rows)
+            + "\n\n![return vs parameter](sweep.png)\n")
 
 
 def write_outputs(out: str, files: dict, force: bool) -> None:

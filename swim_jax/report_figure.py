@@ -7,13 +7,14 @@ inputs give the same bytes.
 from __future__ import annotations
 
 import math
+import re
 
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-from matplotlib.ticker import FuncFormatter  # noqa: E402
+from matplotlib.ticker import FuncFormatter, NullFormatter  # noqa: E402
 
 COLORS = {"swim": "tab:red", "swish": "tab:blue", "relu": "tab:green"}
 NAMES = {"swim": "Swim", "swish": "Swish", "relu": "ReLU"}
@@ -72,6 +73,69 @@ def figure4(groups: dict, paths: list[str]) -> None:
         for ax in list(axes.flat)[len(envs):]:
             ax.set_visible(False)
         fig.suptitle("Learning curves: mean over seeds, shaded ± ½ std", fontsize=11)
+        fig.tight_layout()
+        for p in paths:
+            kw = {"metadata": {"Date": None}} if str(p).endswith(".svg") else {"dpi": 120}
+            fig.savefig(p, **kw)
+        plt.close(fig)
+
+
+_PARAM_LABEL = re.compile(r"^(?P<act>[a-z_]+)(?:\((?P<key>\w+)=(?P<val>[^)]+)\))?(?P<learn>\+learnable)?$")
+
+
+def parameter_series(groups: dict) -> dict:
+    """``{(env, activation, param): [(value, final returns[seeds], best-curve mean), ...]}`` for every
+    activation that appears with ≥ 2 values of its parameter in one env (a k or beta sweep; the
+    unparameterised label counts as the paper's default). With ``+learnable`` the value is the
+    initial one (series key ``"swim+learnable"``). Labels with other sweep values
+    (``swim(k=1)[tau=0.01]``) are left out."""
+    from swim_jax.runs_io import DEFAULT_PARAMS
+
+    out = {}
+    for env, g in groups.items():
+        by_act: dict = {}
+        for label, c in g.curves.items():
+            m = _PARAM_LABEL.match(label)
+            if not m or m["act"] not in DEFAULT_PARAMS:
+                continue
+            key, default = DEFAULT_PARAMS[m["act"]]
+            value = float(m["val"]) if m["val"] is not None else default
+            if m["key"] not in (None, key):
+                continue
+            by_act.setdefault((env, m["act"] + (m["learn"] or ""), key), []).append(
+                (value, c.returns[-1], float(c.returns.mean(axis=1).max())))
+        out.update({k: sorted(v, key=lambda t: t[0]) for k, v in by_act.items() if len(v) >= 2})
+    return out
+
+
+def sweep_figure(series: dict, paths: list[str]) -> None:
+    """Return vs activation parameter (log x): final evaluation return (mean ± std over seeds) and
+    the best evaluation of the mean curve, one panel per (env, activation)."""
+    n = len(series)
+    ncols = min(n, 3)
+    nrows = math.ceil(n / ncols)
+    with plt.rc_context({"svg.hashsalt": "swim-jax-report"}):
+        fig, axes = plt.subplots(nrows, ncols, figsize=(5.0 * ncols, 3.6 * nrows), squeeze=False)
+        for ax, ((env, act, key), pts) in zip(axes.flat, series.items()):
+            x = np.array([p[0] for p in pts])
+            final = np.array([p[1].mean() for p in pts])
+            std = np.array([p[1].std(ddof=0) for p in pts])
+            best = np.array([p[2] for p in pts])
+            base = act.split("+")[0]
+            color = COLORS.get(base, "0.3")
+            ax.errorbar(x, final, yerr=std, color=color, marker="o", capsize=3, label="final (mean ± std over seeds)")
+            ax.plot(x, best, color=color, ls="--", marker="x", label="best of mean curve")
+            ax.set_xscale("log")
+            ax.set_xticks(x, [f"{v:g}" for v in x])
+            ax.xaxis.set_minor_formatter(NullFormatter())
+            learn = act.endswith("+learnable")
+            ax.set_xlabel(f"initial {key} (learned per layer)" if learn else key)
+            ax.set_ylabel("average return")
+            ax.set_title(f"{env}: {display_name(act)} vs {key}")
+            ax.grid(alpha=0.3)
+            ax.legend(fontsize=8, loc="best")
+        for ax in list(axes.flat)[n:]:
+            ax.set_visible(False)
         fig.tight_layout()
         for p in paths:
             kw = {"metadata": {"Date": None}} if str(p).endswith(".svg") else {"dpi": 120}

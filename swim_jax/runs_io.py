@@ -151,7 +151,8 @@ def load_run(path: str) -> Run:
     if not np.issubdtype(returns.dtype, np.number) or not np.all(np.isfinite(returns)):
         raise RunError(f"{ev_path}: non-numeric or non-finite returns")
     return Run(
-        path=path, config=cfg, env=env, activation=activation_label(act), total_steps=total_steps,
+        path=path, config=cfg, env=env, activation=activation_label(act) + _point_suffix(path, act),
+        total_steps=total_steps,
         eval_freq=eval_freq, seed_ids=[(base_seed, first_seed + i) for i in range(seeds)],
         returns=returns.astype(np.float64),
     )
@@ -193,8 +194,44 @@ def group_runs(runs: list[Run], allow_incomplete: bool = False) -> dict[str, Env
     return groups
 
 
+def expand_sweeps(paths: list[str]) -> list[str]:
+    """Replace every sweep folder (``swim_jax.sweep``: ``sweep.csv`` + ``points/``) by its point
+    folders, in grid order (``sweep.csv``'s row order); other paths are kept as given."""
+    out = []
+    for p in paths:
+        table = os.path.join(p, "sweep.csv")
+        if os.path.isfile(table):
+            with open(table) as f:
+                labels = [line.split(",", 1)[0] for line in f.read().splitlines()[1:] if line]
+            if not labels:
+                raise RunError(f"{table}: no sweep points (the sweep has not written an evaluation yet?)")
+            out.extend(os.path.join(p, "points", label) for label in labels)
+        else:
+            out.append(p)
+    return out
+
+
+def _point_suffix(path: str, act: dict) -> str:
+    """``[tau=0.01,actor_lr=0.0001]`` for a sweep point's non-activation values ('' otherwise):
+    points that differ only there are different experiments, not more seeds."""
+    p = os.path.join(path, "point.json")
+    if not os.path.isfile(p):
+        return ""
+    import json
+
+    try:
+        with open(p) as f:
+            values = json.load(f)["values"]
+    except (OSError, ValueError, KeyError, TypeError) as e:
+        raise RunError(f"{p}: unreadable ({_one_line(e)})") from None
+    other = [f"{k.rsplit('.', 1)[-1]}={float(v):g}" for k, v in values.items() if not k.startswith("agent.activation.")]
+    return f"[{','.join(other)}]" if other else ""
+
+
 def load_and_group(paths: list[str], allow_incomplete: bool = False) -> dict[str, EnvGroup]:
-    """:func:`load_run` on every path (duplicates refused), then :func:`group_runs`."""
+    """:func:`load_run` on every path (sweep folders expanded to their points, duplicates
+    refused), then :func:`group_runs`."""
+    paths = expand_sweeps(paths)
     seen = {}
     for p in paths:
         key = os.path.realpath(p)

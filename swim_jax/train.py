@@ -15,6 +15,13 @@ Outputs in ``<out_dir>/<name>-<UTC timestamp>/``:
   timing.json                  wall time, env-steps/s (aggregate and per seed), compile counts
   checkpoints/<step>/          orbax: the whole training state (last ``keep_checkpoints``)
   final_policy.npz             actor parameters, leading axis = seed
+  activation_params.csv        learnable k/beta per layer, seed and evaluation (learnable runs)
+  point.json                   sweep points only: the point's label and swept values
+
+A sweep (``python -m swim_jax.sweep``, config key ``sweep``) trains every grid point × seed as a
+lane of the same program; the run folder then holds ``sweep.csv`` (one row per point) and, per
+point, ``points/<label>/`` with the files above (its config.yaml is the point's plain config, so
+``swim_jax.report`` and ``swim_jax.render`` read a point like any run). Checkpoints stay at the top.
 
 Exit status: 0 done; 2 bad command line/config (one line on stderr, nothing written);
 3 NaN/inf detected (message names seed, step and quantity; last good checkpoint kept).
@@ -38,7 +45,7 @@ from swim_jax import config as cfgmod
 from swim_jax.config import Config, ConfigError
 
 USAGE = (
-    "usage: python -m swim_jax.train config=<name> [key=value ...]\n"
+    "usage: python -m swim_jax.train config=<name> [key=value ...]   (sweeps: python -m swim_jax.sweep)\n"
     "       python -m swim_jax.train --resume <run dir>"
 )
 
@@ -98,21 +105,39 @@ class Programs:
     env: object
     eval_env: object
     agent: object
-    init_fn: object  # (base_seed uint32, seed_ids int32[L]) -> TrainState[L]
-    chunk_fn: object  # (TrainState[L], t0 int32) -> TrainState[L]; argument donated
-    eval_fn: object  # (actor[L], eval_keys[L], eval_index int32, random bool) -> returns[L, E]
+    init_fn: object  # (base_seed uint32, seed_ids int32[L][, hparams {path: [L]}]) -> TrainState[L]
+    chunk_fn: object  # (TrainState[L], t0 int32[, hparams]) -> TrainState[L]; state donated
+    eval_fn: object  # (actor[L], eval_keys[L], eval_index int32, random bool[, hparams]) -> returns[L, E]
 
 
 _PROGRAMS: dict = {}
 
 
 def num_lanes(cfg: Config) -> int:
-    """Width of the vmapped seed axis: ``seeds``, or 2 for a padded single-seed run.
+    """Width of the vmapped lane axis: sweep points × ``seeds``, or 2 for a padded single-lane run.
 
     Why pad: with a unit vmap axis XLA CPU simplifies the batched MJX physics differently, which
     changes float rounding (~1e-5 after ~10 steps), so seed i alone would drift from seed i in a
     multi-seed run. Lanes ≥ 2 compute each seed bit-identically (tests/test_train.py)."""
-    return 2 if cfg.seeds == 1 and cfg.pad_single_seed else cfg.seeds
+    real = len(cfgmod.sweep_points(cfg)) * cfg.seeds
+    return 2 if real == 1 and cfg.pad_single_seed else real
+
+
+def lane_inputs(cfg: Config, dtype) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """(seed index per lane int32[L], sweep values per lane ``{agent path: [L]}``).
+
+    Lane ``p·seeds + s`` is seed ``first_seed + s`` of sweep point ``p`` (every point sees the
+    same seeds); a padded lane repeats lane 0. Paths drop the ``agent.`` prefix
+    (``activation.k``), as ``TD3.with_hparams`` takes them."""
+    lanes = num_lanes(cfg)
+    points = cfgmod.sweep_points(cfg)
+    seeds = np.arange(cfg.first_seed, cfg.first_seed + cfg.seeds)
+    seed_ids = np.resize(np.tile(seeds, len(points)), lanes).astype(np.int32)
+    hparams = {
+        key.split(".", 1)[1]: np.resize(np.repeat([p[key] for p in points], cfg.seeds), lanes).astype(dtype)
+        for key in cfg.sweep
+    }
+    return seed_ids, hparams
 
 
 def programs(cfg: Config) -> Programs:
@@ -129,8 +154,10 @@ def programs(cfg: Config) -> Programs:
            cfg.replay_size, cfg.precision)
     if key not in _PROGRAMS:
         env, eval_env, agent = build(cfg)
-        init_fn = jax.jit(jax.vmap(
-            lambda base, i: loop.init_state(agent, env, cfg.replay_size, base, i), in_axes=(None, 0)))
+        def init_lanes(base, seed_ids, hparams=None):
+            return jax.vmap(lambda i, h: loop.init_state(agent, env, cfg.replay_size, base, i, h))(seed_ids, hparams)
+
+        init_fn = jax.jit(init_lanes)
         chunk_fn = jax.jit(loop.make_chunk_fn(agent, env, cfg.learning_starts, cfg.eval_freq),
                            donate_argnums=0)
         eval_fn = jax.jit(loop.make_eval_fn(agent, eval_env, cfg.eval_episodes, cfg.env.max_episode_steps))
@@ -221,57 +248,88 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None]) ->
     import jax
     import jax.numpy as jnp
 
-    from agents import loop
+    from swim_jax import learned_params
     from swim_jax.checkpoint import Checkpointer
 
     t_start = time.time()
     prog = programs(cfg)
     os.makedirs(run_dir, exist_ok=True)
-    cfg_path = os.path.join(run_dir, "config.yaml")
+    points = cfgmod.sweep_points(cfg)
+    S, P = cfg.seeds, len(points)
+    outputs = _point_outputs(cfg, run_dir, points)
     if not resume:
-        with open(cfg_path, "w") as f:
+        with open(os.path.join(run_dir, "config.yaml"), "w") as f:
             f.write(cfgmod.dump(cfg))
+        for point, (out_dir, point_cfg) in zip(points, outputs):
+            os.makedirs(out_dir, exist_ok=True)
+            if out_dir != run_dir:
+                with open(os.path.join(out_dir, "config.yaml"), "w") as f:
+                    f.write(cfgmod.dump(point_cfg))
+                with open(os.path.join(out_dir, "point.json"), "w") as f:
+                    json.dump({"label": cfgmod.point_label(point), "values": point}, f, indent=1)
 
     n_chunks = cfg.total_steps // cfg.eval_freq
     n_evals = n_chunks + 1
     lanes = num_lanes(cfg)
-    seed_ids = np.arange(cfg.first_seed, cfg.first_seed + cfg.seeds)
-    seed_ids = jnp.asarray(np.resize(seed_ids, lanes), jnp.int32)  # [i] -> [i, i] when padded
+    seed_ids_np, hparams_np = lane_inputs(cfg, prog.agent.dtype)
+    seed_ids = jnp.asarray(seed_ids_np)
+    hparams = {k: jnp.asarray(v) for k, v in hparams_np.items()}
+    sweep_args = (hparams,) if hparams else ()  # no sweep: the functions' 2-/4-argument signatures
     base_seed = jnp.asarray(cfg.seed, jnp.uint32)
     init_fn, chunk_fn, eval_fn = prog.init_fn, prog.chunk_fn, prog.eval_fn
     ckpt = Checkpointer(os.path.join(run_dir, "checkpoints"), keep=cfg.keep_checkpoints)
+    logs_params = cfg.agent.activation.learnable
 
-    evals = np.full((n_evals, lanes, cfg.eval_episodes), np.nan)  # lanes >= seeds
+    evals = np.full((n_evals, lanes, cfg.eval_episodes), np.nan)  # lanes >= points × seeds
     eval_time = 0.0
 
     def evaluate(states, j):
         nonlocal eval_time
         t0 = time.time()
-        r = np.asarray(eval_fn(states.agent.actor, states.eval_key, jnp.asarray(j, jnp.int32), jnp.asarray(False)))
+        r = np.asarray(eval_fn(states.agent.actor, states.eval_key, jnp.asarray(j, jnp.int32),
+                               jnp.asarray(False), *sweep_args))
         eval_time += time.time() - t0
         evals[j] = r
+        if logs_params:
+            values = learned_params.activation_params(states.agent.actor, states.agent.critic)
+            for p, (out_dir, point_cfg) in enumerate(outputs):
+                learned_params.append(os.path.join(out_dir, learned_params.FILENAME), j * cfg.eval_freq,
+                                      seed_ids_np[p * S:(p + 1) * S],
+                                      {k: v[p * S:(p + 1) * S] for k, v in values.items()})
+
+    def write_all(n_done):
+        for p, (out_dir, point_cfg) in enumerate(outputs):
+            write_evaluations(out_dir, point_cfg, evals[:, p * S:(p + 1) * S], n_done)
+        if cfg.sweep:
+            write_sweep_table(run_dir, cfg, points, evals[:n_done, : P * S])
 
     start_chunk = 0
     if resume and ckpt.latest_step() is not None:
         step = ckpt.latest_step()
         # evals are stored in the compute dtype (exact: every return was computed in it)
-        template = (jax.eval_shape(init_fn, base_seed, seed_ids), jax.ShapeDtypeStruct(evals.shape, jnp.asarray(evals).dtype))
+        template = (jax.eval_shape(init_fn, base_seed, seed_ids, *sweep_args),
+                    jax.ShapeDtypeStruct(evals.shape, jnp.asarray(evals).dtype))
         states, saved_evals = ckpt.restore(step, template)
         start_chunk = step // cfg.eval_freq
         evals[:] = np.asarray(saved_evals)
+        for out_dir, _ in outputs:
+            learned_params.truncate_after(os.path.join(out_dir, learned_params.FILENAME), step)
         log(f"resumed {run_dir} at step {step}")
     else:
-        states = init_fn(base_seed, seed_ids)
+        for out_dir, _ in outputs:  # a resume without checkpoints restarts the log too
+            if os.path.exists(os.path.join(out_dir, learned_params.FILENAME)):
+                os.remove(os.path.join(out_dir, learned_params.FILENAME))
+        states = init_fn(base_seed, seed_ids, *sweep_args)
         evaluate(states, 0)
         if resume:
             log(f"no checkpoint in {run_dir}; starting from step 0")
-    write_evaluations(run_dir, cfg, evals, start_chunk + 1)
+    write_all(start_chunk + 1)
 
     train_time, steps_timed, first_chunk_time = 0.0, 0, None
     loop_walls: list[float] = []  # whole chunk iterations (train + eval + checkpoint) for the ETA
     for c in range(start_chunk, n_chunks):
         t0 = time.time()
-        states = chunk_fn(states, jnp.asarray(c * cfg.eval_freq, jnp.int32))
+        states = chunk_fn(states, jnp.asarray(c * cfg.eval_freq, jnp.int32), *sweep_args)
         bad = np.asarray(states.bad_step)
         dt = time.time() - t0
         if first_chunk_time is None:
@@ -280,51 +338,95 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None]) ->
             train_time += dt
             steps_timed += cfg.eval_freq
         step = (c + 1) * cfg.eval_freq
-        hit = _first_bad(bad)
+        hit = _first_bad(bad[: P * S])
         if hit is not None:
-            s, st, q = hit
+            lane, st, q = hit
+            where = f"seed {cfg.first_seed + lane % S}"
+            if cfg.sweep:
+                where += f" of sweep point {cfgmod.point_label(points[lane // S])}"
             last = ckpt.latest_step()
             raise NonFiniteError(
-                f"non-finite {q} in seed {cfg.first_seed + s} at step {st}; stopped "
+                f"non-finite {q} in {where} at step {st}; stopped "
                 f"(last good checkpoint: {'none' if last is None else f'step {last}'} in {run_dir}/checkpoints)"
             )
         evaluate(states, c + 1)
         ckpt.save(step, (states, jnp.asarray(evals)))
-        write_evaluations(run_dir, cfg, evals, c + 2)
-        means = evals[c + 1, : cfg.seeds].mean(axis=1)
-        rate = cfg.eval_freq * cfg.seeds / dt
+        write_all(c + 2)
         loop_walls.append(time.time() - t0)
         # recent iterations: the learning phase is much slower than the uniform-random warm-up
         typical = np.mean(loop_walls[1:][-3:]) if len(loop_walls) > 1 else loop_walls[0]
-        eta = typical * (n_chunks - c - 1)
-        log(
-            f"step {step:>8d}/{cfg.total_steps} | {rate:8.0f} env-steps/s ({rate / cfg.seeds:.0f}/seed"
-            f"{', incl. compile' if c == start_chunk else ''}) | "
-            f"eval {means.mean():9.2f} ± {means.std():7.2f} over {cfg.seeds} seeds | "
-            f"elapsed {_fmt_time(time.time() - t_start)} | ETA {_fmt_time(eta)}"
-        )
+        log(_progress_line(cfg, points, step, evals[c + 1, : P * S], dt, c == start_chunk,
+                           time.time() - t_start, typical * (n_chunks - c - 1)))
 
-    final_actor = _actor_npz(os.path.join(run_dir, "final_policy.npz"),
-                             jax.tree.map(lambda x: x[: cfg.seeds], states.agent.actor))
+    for p, (out_dir, _) in enumerate(outputs):
+        final_actor = _actor_npz(os.path.join(out_dir, "final_policy.npz"),
+                                 jax.tree.map(lambda x: x[p * S:(p + 1) * S], states.agent.actor))
     wall = time.time() - t_start
     timing = {
         "wall_time_s": wall,
         "train_time_s_excluding_first_chunk": train_time,
         "first_chunk_s_including_compile": first_chunk_time,
         "eval_time_s": eval_time,
-        "env_steps_per_s": (steps_timed * cfg.seeds / train_time) if train_time > 0 else None,
+        "env_steps_per_s": (steps_timed * P * S / train_time) if train_time > 0 else None,
         "env_steps_per_s_per_seed": (steps_timed / train_time) if train_time > 0 else None,
-        "seeds": cfg.seeds,
+        "seeds": S,
+        "sweep_points": P,
+        "lanes": lanes,
         "total_steps": cfg.total_steps,
         "resumed_from_chunk": start_chunk if resume else None,
         "chunk_compiles": chunk_fn._cache_size(),
         "eval_compiles": eval_fn._cache_size(),
         "platform": jax.devices()[0].platform,
     }
-    with open(os.path.join(run_dir, "timing.json"), "w") as f:
-        json.dump(timing, f, indent=2)
+    for out_dir in {run_dir, *(d for d, _ in outputs)}:
+        with open(os.path.join(out_dir, "timing.json"), "w") as f:
+            json.dump(timing, f, indent=2)
     ckpt.close()
-    return RunResult(run_dir, evals[:, : cfg.seeds], final_actor, states, chunk_fn, eval_fn, timing)
+    return RunResult(run_dir, evals[:, : P * S], final_actor, states, chunk_fn, eval_fn, timing)
+
+
+def _point_outputs(cfg: Config, run_dir: str, points) -> list[tuple[str, Config]]:
+    """(output folder, plain config) per sweep point; ``[(run_dir, cfg)]`` without a sweep."""
+    if not cfg.sweep:
+        return [(run_dir, cfg)]
+    out = []
+    for point in points:
+        label = cfgmod.point_label(point)
+        pc = dataclasses.replace(cfgmod.point_config(cfg, point), name=f"{cfg.name}-{label}")
+        out.append((os.path.join(run_dir, "points", label), pc))
+    return out
+
+
+def write_sweep_table(run_dir: str, cfg: Config, points, evals: np.ndarray) -> None:
+    """``sweep.csv``: per point its values, the final and the best evaluation (mean over seeds of
+    each seed's mean episode return; std over seeds), from ``evals[n_done, P·seeds, episodes]``."""
+    S = cfg.seeds
+    keys = list(cfg.sweep)
+    with open(os.path.join(run_dir, "sweep.csv"), "w") as f:
+        f.write(",".join(["point", *keys, "final_mean", "final_std", "best_mean", "best_step"]) + "\n")
+        for p, point in enumerate(points):
+            m = evals[:, p * S:(p + 1) * S].mean(axis=2)  # [n, seeds]
+            curve = m.mean(axis=1)
+            best = int(np.argmax(curve))
+            row = [cfgmod.point_label(point), *(repr(point[k]) for k in keys),
+                   repr(float(curve[-1])), repr(float(m[-1].std())), repr(float(curve[best])), str(best * cfg.eval_freq)]
+            f.write(",".join(row) + "\n")
+
+
+def _progress_line(cfg: Config, points, step: int, ev: np.ndarray, dt: float, first: bool,
+                   elapsed: float, eta: float) -> str:
+    """One line per chunk: step, throughput, eval mean ± std over seeds (per point for sweeps)."""
+    S, P = cfg.seeds, len(points)
+    means = ev.mean(axis=1)  # [P·S] each lane's mean episode return
+    rate = cfg.eval_freq * P * S / dt
+    unit = "lane" if cfg.sweep else "seed"
+    over = f"{P} points × {S} seeds" if cfg.sweep else f"{S} seeds"
+    line = (f"step {step:>8d}/{cfg.total_steps} | {rate:8.0f} env-steps/s ({rate / (P * S):.0f}/{unit}"
+            f"{', incl. compile' if first else ''}) | eval {means.mean():9.2f} ± {means.std():7.2f} over {over}")
+    if cfg.sweep and P <= 8:
+        line += " [" + ", ".join(f"{cfgmod.point_label(pt)}: {means[p * S:(p + 1) * S].mean():.0f}"
+                                 for p, pt in enumerate(points)) + "]"
+    return line + f" | elapsed {_fmt_time(elapsed)} | ETA {_fmt_time(eta)}"
 
 
 # ------------------------------------------------------------------------------------------------
@@ -366,10 +468,14 @@ def parse_args(argv: list[str]) -> tuple[Config, str | None]:
     return cfgmod.resolve(config_name, overrides), None
 
 
-def main(argv: list[str] | None = None) -> int:
+def main(argv: list[str] | None = None, require_sweep: bool = False) -> int:
+    """The command line of ``swim_jax.train`` (and, with ``require_sweep``, of ``swim_jax.sweep``)."""
     argv = sys.argv[1:] if argv is None else argv
     try:
         cfg, resume = parse_args(argv)
+        if require_sweep and not cfg.sweep:
+            raise ConfigError("no sweep axis given; add e.g. sweep.agent.activation.k=[0.25,0.5,1,2] "
+                              f"(sweepable keys: {', '.join(cfgmod.sweepable_keys(cfg))})")
     except ConfigError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
@@ -384,7 +490,8 @@ def main(argv: list[str] | None = None) -> int:
     rate = t["env_steps_per_s"]
     print(
         f"done in {_fmt_time(t['wall_time_s'])}; "
-        f"{'%.0f' % rate if rate else '?'} env-steps/s over {cfg.seeds} seeds; outputs in {run_dir}",
+        f"{'%.0f' % rate if rate else '?'} env-steps/s over {t['lanes'] if cfg.sweep else cfg.seeds} "
+        f"{'lanes (points × seeds)' if cfg.sweep else 'seeds'}; outputs in {run_dir}",
         flush=True,
     )
     return 0

@@ -14,7 +14,7 @@ from swim_jax.bench_activations import main_rsqrt
 def test_unknown_benchmark_exits_2_with_valid_choices(capsys):
     assert bench.main(["bogus"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert err == ["swim_jax.bench: unknown benchmark 'bogus'; valid: activations, rsqrt, envs"]
+    assert err == ["swim_jax.bench: unknown benchmark 'bogus'; valid: activations, rsqrt, envs, train"]
 
 
 @pytest.mark.parametrize(
@@ -95,3 +95,30 @@ def test_env_benchmark_runs_through_the_bench_cli(tmp_path):
     (path,) = tmp_path.glob("envs-*.json")
     rows = json.loads(path.read_text())["rows"]
     assert rows and all(r["env"] == "Hopper-v5" for r in rows)
+
+
+@pytest.mark.parametrize("args,needle", [(["--lanes", "0,2"], "positive integers"), (["--lanes", "x"], "positive integers"),
+                                         (["--config", "nope"], "valid configs"), (["--repeats", "0"], ">= 1")])
+def test_train_benchmark_bad_input_exit_2_nothing_written(tmp_path, capsys, args, needle):
+    from swim_jax.bench_train import main as bench_train_main
+
+    assert bench_train_main([*args, "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert needle in err and err.count("\n") == 1
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.slow
+def test_train_benchmark_times_real_programs_without_recompiling(tmp_path):
+    from swim_jax.bench_train import main as bench_train_main
+
+    tiny = ["--set", "agent.hidden=[16]", "--set", "agent.batch_size=16"]
+    assert bench_train_main(["--config", "hopper_relu", "--lanes", "1,2", "--chunk-steps", "50",
+                             "--repeats", "2", *tiny, "--out", str(tmp_path)]) == 0
+    (path,) = tmp_path.glob("train-*.json")
+    rows = json.loads(path.read_text())["rows"]
+    assert [r["lanes"] for r in rows] == [1, 2]
+    for r in rows:
+        assert r["chunk_compiles"] == 1 and r["min_s"] <= r["median_s"] <= r["max_s"]
+        assert r["env_steps_per_s"] == pytest.approx(50 * r["lanes"] / r["median_s"])
+    assert rows[0]["cost_ratio_vs_1"] == pytest.approx(1.0)

@@ -1,0 +1,134 @@
+"""Whole-program training throughput vs number of lanes: ``python -m swim_jax.bench train``.
+
+For each lane count L (seeds of one vmapped program) it builds the real training program of a
+config (``swim_jax.train.programs``: env step + replay insert + one TD3 update per step, every step
+in the learning phase: ``learning_starts=0``), compiles it (the first chunk, timed as compile +
+run), then times ``--repeats`` chunks of ``--chunk-steps`` steps per L, interleaved across L in one
+process so machine noise hits every L alike. Reported per L (medians, min–max):
+
+    env-steps/s (all lanes) = chunk_steps · L / t_chunk,   per lane = chunk_steps / t_chunk,
+    ms per step (all lanes) = 1000 · t_chunk / chunk_steps,
+    cost ratio = t_chunk(L) / (L · t_chunk(1))   (issue 6's target: ≤ 0.6 for L = 5 and 10).
+
+A sweep of P points × S seeds is a program of L = P·S lanes, so the table is its cost too.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import os
+import platform
+import statistics
+import sys
+import time
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="python -m swim_jax.bench train", description=__doc__.split("\n")[0])
+    p.add_argument("--config", default="cheetah_swim", help="training config (default cheetah_swim)")
+    p.add_argument("--lanes", default="1,5", help="comma-separated lane counts (default 1,5)")
+    p.add_argument("--chunk-steps", type=int, default=500, help="env steps per timed chunk (default 500)")
+    p.add_argument("--repeats", type=int, default=3, help="timed chunks per lane count (default 3)")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="extra config override, e.g. --set precision=float64 (repeatable)")
+    p.add_argument("--out", default=os.path.join("runs", "bench"), help="folder for the JSON (default runs/bench)")
+    return p
+
+
+def _lanes(text: str) -> list[int]:
+    try:
+        values = [int(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        values = []
+    if not values or any(v < 1 for v in values):
+        raise ValueError(f"--lanes {text!r}: expected comma-separated positive integers such as 1,5,10")
+    return sorted(set(values))
+
+
+def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overrides=(), log=print) -> dict:
+    """Compile one program per lane count, then time ``repeats`` interleaved chunks of each."""
+    import jax
+    import jax.numpy as jnp
+
+    from swim_jax import config as cfgmod
+    from swim_jax import train
+
+    base = cfgmod.resolve(config, [f"eval_freq={chunk_steps}", f"total_steps={chunk_steps}",
+                                   "learning_starts=0", "replay_size=100000", *overrides])
+    progs, states, compile_s = {}, {}, {}
+    for L in lanes:
+        cfg = dataclasses.replace(base, seeds=L, pad_single_seed=False)
+        prog = train.programs(cfg)
+        st = prog.init_fn(jnp.asarray(0, jnp.uint32), jnp.arange(L, dtype=jnp.int32))
+        t0 = time.perf_counter()
+        st = jax.block_until_ready(prog.chunk_fn(st, jnp.asarray(0, jnp.int32)))
+        compile_s[L] = time.perf_counter() - t0
+        progs[L], states[L] = prog, st
+        log(f"lanes {L}: compiled + first chunk {compile_s[L]:.1f} s")
+    times = {L: [] for L in lanes}
+    for r in range(repeats):
+        for L in lanes:
+            t0 = time.perf_counter()
+            states[L] = jax.block_until_ready(
+                progs[L].chunk_fn(states[L], jnp.asarray((r + 1) * chunk_steps, jnp.int32)))
+            times[L].append(time.perf_counter() - t0)
+    one = statistics.median(times[lanes[0]]) / lanes[0] if lanes[0] == 1 else None
+    rows = []
+    for L in lanes:
+        med = statistics.median(times[L])
+        rows.append({
+            "lanes": L, "median_s": med, "min_s": min(times[L]), "max_s": max(times[L]),
+            "env_steps_per_s": chunk_steps * L / med, "env_steps_per_s_per_lane": chunk_steps / med,
+            "ms_per_step": 1000 * med / chunk_steps, "compile_plus_first_chunk_s": compile_s[L],
+            "cost_ratio_vs_1": (med / (L * one)) if one else None,
+            "chunk_compiles": progs[L].chunk_fn._cache_size(),  # 1: nothing recompiled while timing
+        })
+    return {
+        "benchmark": "train", "config": config, "overrides": list(overrides), "chunk_steps": chunk_steps,
+        "repeats": repeats, "env": base.env.id, "activation": dataclasses.asdict(base.agent.activation),
+        "hidden": list(base.agent.hidden), "precision": base.precision, "rows": rows,
+        "machine": {"platform": jax.devices()[0].platform, "device": str(jax.devices()[0]),
+                    "cpu_count": os.cpu_count(), "python": platform.python_version(), "jax": jax.__version__},
+        "time": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+    }
+
+
+def markdown(res: dict) -> str:
+    """The result as a Markdown table (medians; min–max of the chunk time)."""
+    lines = [f"{res['env']} {res['activation']['name']} {res['hidden']} {res['precision']}, "
+             f"{res['chunk_steps']} steps per chunk, {res['repeats']} chunks, {res['machine']['device']}",
+             "", "| lanes | env-steps/s (all) | per lane | ms/step | chunk s (min–max) | cost ratio vs 1 | compile + 1st chunk s |",
+             "|---|---|---|---|---|---|---|"]
+    for r in res["rows"]:
+        ratio = "—" if r["cost_ratio_vs_1"] is None else f"{r['cost_ratio_vs_1']:.2f}"
+        lines.append(f"| {r['lanes']} | {r['env_steps_per_s']:.0f} | {r['env_steps_per_s_per_lane']:.0f} | "
+                     f"{r['ms_per_step']:.2f} | {r['median_s']:.2f} ({r['min_s']:.2f}–{r['max_s']:.2f}) | "
+                     f"{ratio} | {r['compile_plus_first_chunk_s']:.0f} |")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    from swim_jax.config import ConfigError
+
+    try:
+        lanes = _lanes(args.lanes)
+        if args.chunk_steps < 1 or args.repeats < 1:
+            raise ValueError("--chunk-steps and --repeats must be >= 1")
+        res = measure(args.config, lanes, args.chunk_steps, args.repeats, tuple(args.set))
+    except (ValueError, ConfigError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    print(markdown(res))
+    os.makedirs(args.out, exist_ok=True)
+    path = os.path.join(args.out, f"train-{time.strftime('%Y%m%d-%H%M%S', time.gmtime())}.json")
+    with open(path, "w") as f:
+        json.dump(res, f, indent=1)
+    print(f"wrote {path}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,192 @@
+"""Hyperparameter sweeps as lanes of one program (`python -m swim_jax.sweep`) and learnable k.
+
+One tiny real sweep (Hopper-v5, Swim with learnable k, k ∈ {0.5, 1}, 2 seeds → 4 lanes) serves
+the run-level tests; the per-lane hyperparameter mechanism (``TD3.with_hparams``) is checked on
+single TD3 updates against agents built from the corresponding plain configs.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import json
+import os
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from agents.replay import Transition
+from agents.td3 import TD3, ActivationConfig, TD3Config
+from swim_jax import config as cfgmod
+from swim_jax import learned_params, report, runs_io, sweep, train
+from swim_jax.render import RenderError, load_policy
+
+TINY = ["seeds=2", "total_steps=3000", "eval_freq=1000", "learning_starts=1000", "eval_episodes=3",
+        "replay_size=5000", "agent.hidden=[16,16]", "agent.batch_size=32", "agent.activation.learnable=true"]
+KS = (0.5, 1.0)
+
+
+# ------------------------------------------------------------------------------------------------
+# configuration
+# ------------------------------------------------------------------------------------------------
+
+def test_sweep_grid_points_and_point_configs():
+    cfg = cfgmod.resolve("hopper_swim", ["sweep.agent.activation.k=[0.25,0.5,1]", "sweep.agent.tau=[0.005,0.01]"])
+    pts = cfgmod.sweep_points(cfg)
+    assert len(pts) == 6 and pts[0] == {"agent.activation.k": 0.25, "agent.tau": 0.005}
+    assert pts[1] == {"agent.activation.k": 0.25, "agent.tau": 0.01}  # first key varies slowest
+    assert cfgmod.point_label(pts[1]) == "k=0.25,tau=0.01"
+    pc = cfgmod.point_config(cfg, pts[1])
+    assert pc.agent.activation.k == 0.25 and pc.agent.tau == 0.01 and pc.sweep == {}
+    seed_ids, hp = train.lane_inputs(dataclasses.replace(cfg, seeds=2), np.float32)
+    np.testing.assert_array_equal(seed_ids, [0, 1] * 6)
+    np.testing.assert_allclose(hp["activation.k"], np.repeat([0.25, 0.25, 0.5, 0.5, 1, 1], 2))
+    np.testing.assert_allclose(hp["tau"], np.repeat([0.005, 0.01] * 3, 2), rtol=1e-7)
+    assert train.num_lanes(dataclasses.replace(cfg, seeds=2)) == 12
+    # the sweep round-trips through config.yaml
+    assert cfgmod.from_dict(cfgmod.Config, __import__("yaml").safe_load(cfgmod.dump(cfg))) == cfg
+    assert cfgmod.sweep_points(cfgmod.resolve("hopper_swim", [])) == [{}]
+
+
+@pytest.mark.parametrize("argv, needle", [
+    (["config=hopper_swim"], "no sweep axis given; add e.g. sweep.agent.activation.k="),
+    (["config=hopper_swim", "sweep.agent.batch_size=[64,128]"], "valid sweep keys: agent.actor_lr"),
+    (["config=hopper_relu", "sweep.agent.activation.k=[1,2]"], "cannot be swept (activation relu)"),
+    (["config=hopper_swish", "sweep.agent.activation.k=[1,2]"], "agent.activation.beta"),
+    (["config=hopper_swim", "sweep.agent.activation.k=[0.5,-1]"], "sweep point k=-1"),
+    (["config=hopper_swim", "sweep.agent.tau=0.01"], "expected a non-empty list of numbers"),
+    (["config=hopper_swim", "sweep.agent.tau=[0.01,0.01]"], "values must be distinct"),
+    (["config=hopper_swim", "sweep.agent.discount=[0.9,1.5]"], "discount in [0, 1]"),
+])
+def test_sweep_cli_errors_one_line_exit_2_nothing_written(argv, needle, tmp_path, capsys):
+    rc = sweep.main(argv + [f"out_dir={tmp_path}"])
+    err = capsys.readouterr().err
+    assert rc == 2 and needle in err and err.count("\n") == 1, err
+    assert os.listdir(tmp_path) == []
+
+
+# ------------------------------------------------------------------------------------------------
+# per-lane hyperparameters in one update
+# ------------------------------------------------------------------------------------------------
+
+def _batch(key, n, obs_dim, act_dim):
+    ks = jax.random.split(key, 5)
+    return Transition(
+        jax.random.normal(ks[0], (n, obs_dim)), jax.random.uniform(ks[1], (n, act_dim), minval=-1, maxval=1),
+        jax.random.normal(ks[2], (n,)), jax.random.normal(ks[3], (n, obs_dim)),
+        (jax.random.uniform(ks[4], (n,)) < 0.2).astype(jnp.float32))
+
+
+@pytest.mark.parametrize("learnable", [False, True])
+def test_with_hparams_update_matches_agent_built_from_the_plain_config(learnable):
+    """Two lanes with different (k, tau, lrs, noises, discount) in one vmapped update equal two
+    agents whose configs hold those values as constants (float32 rounding of the constants apart)."""
+    base = TD3Config(hidden=(8,), activation=ActivationConfig("swim", 0.5, learnable=learnable), batch_size=4)
+    values = [dict(tau=0.005, actor_lr=3e-4, critic_lr=3e-4, discount=0.99, policy_noise=0.2, noise_clip=0.5, k=0.5),
+              dict(tau=0.05, actor_lr=1e-2, critic_lr=2e-2, discount=0.9, policy_noise=0.4, noise_clip=0.3, k=2.0)]
+    mk = lambda c: TD3(c, 3, (-1.0, -1.0), (1.0, 1.0))
+    batch = _batch(jax.random.PRNGKey(1), 4, 3, 2)
+    hp = {("activation.k" if k == "k" else k): jnp.asarray([v[k] for v in values], jnp.float32) for k in values[0]}
+    agent = mk(base)
+
+    @jax.jit
+    def swept(h):
+        def one(h):
+            a = agent.with_hparams(h)
+            s = a.init(jax.random.PRNGKey(0))
+            s, _ = a.update(s, batch, jax.random.PRNGKey(2), True)
+            s, m = a.update(s, batch, jax.random.PRNGKey(3), True)
+            return s, m
+        return jax.vmap(one)(h)
+
+    states, metrics = swept(hp)
+    for lane, v in enumerate(values):
+        cfg = dataclasses.replace(base, activation=dataclasses.replace(base.activation, k=v["k"]),
+                                  **{k: x for k, x in v.items() if k != "k"})
+        a = mk(cfg)
+        s = a.init(jax.random.PRNGKey(0))
+        s, _ = a.update(s, batch, jax.random.PRNGKey(2), True)
+        s, m = a.update(s, batch, jax.random.PRNGKey(3), True)
+        np.testing.assert_allclose(metrics.critic_loss[lane], m.critic_loss, rtol=2e-5)
+        for got, want in zip(jax.tree.leaves(states), jax.tree.leaves(s)):
+            np.testing.assert_allclose(np.asarray(got)[lane], np.asarray(want), rtol=2e-5, atol=1e-6)
+    # the lanes really differ (the swept values reached the update)
+    assert not np.allclose(metrics.critic_loss[0], metrics.critic_loss[1])
+
+
+# ------------------------------------------------------------------------------------------------
+# one real sweep run
+# ------------------------------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def swept(tmp_path_factory):
+    lines: list[str] = []
+    cfg = cfgmod.resolve("hopper_swim", TINY + [f"sweep.agent.activation.k=[{KS[0]},{KS[1]}]"])
+    res = train.run(cfg, str(tmp_path_factory.mktemp("sweep") / "run"), log=lines.append)
+    res.lines = lines
+    res.cfg = cfg
+    return res
+
+
+def test_sweep_outputs_one_folder_per_point(swept):
+    d = swept.run_dir
+    with open(os.path.join(d, "sweep.csv")) as f:
+        rows = list(csv.DictReader(f))
+    assert [r["point"] for r in rows] == ["k=0.5", "k=1"]
+    for p, (row, k) in enumerate(zip(rows, KS)):
+        pd = os.path.join(d, "points", row["point"])
+        run = runs_io.load_run(pd)  # an ordinary run folder
+        assert run.activation == ("swim" if k == 0.5 else f"swim(k={k:g})") + "+learnable"
+        np.testing.assert_array_equal(run.returns, swept.evaluations[:, 2 * p:2 * p + 2].mean(axis=2))
+        assert float(row["final_mean"]) == pytest.approx(run.returns[-1].mean())
+        assert json.load(open(os.path.join(pd, "point.json")))["values"] == {"agent.activation.k": k}
+        with np.load(os.path.join(pd, "final_policy.npz")) as z:
+            assert z["params/body/head/bias"].shape[0] == 2
+    assert len(swept.lines) == 3 and "over 2 points × 2 seeds [k=0.5:" in swept.lines[0]
+    assert swept.chunk_fn._cache_size() == 1 and swept.eval_fn._cache_size() == 1  # no recompilation
+    assert swept.timing["lanes"] == 4 and swept.timing["sweep_points"] == 2
+
+
+def test_points_differ_and_seeds_are_shared(swept):
+    ev = swept.evaluations.mean(axis=2)  # [n, 4 lanes]
+    assert not np.array_equal(ev[:, 0], ev[:, 2])  # k differs
+    assert not np.array_equal(ev[:, 0], ev[:, 1])  # seed differs
+    # the same seed at both points starts from the same keys: identical initial weights and the same
+    # uniform-random warm-up transitions in the replay buffer
+    buf = np.asarray(swept.states.buffer.data.obs)
+    np.testing.assert_array_equal(buf[0, :1000], buf[2, :1000])
+    assert not np.array_equal(buf[0, :1000], buf[1, :1000])
+
+
+def test_learnable_k_trajectory_logged_per_layer_and_seed(swept):
+    for p, k in enumerate(KS):
+        log = learned_params.read(os.path.join(swept.run_dir, "points", f"k={k:g}", learned_params.FILENAME))
+        np.testing.assert_array_equal(log["step"], [0, 1000, 2000, 3000])
+        np.testing.assert_array_equal(log["seed"], [0, 1])
+        names = sorted(n for n in log if "/" in n)
+        assert names == ["actor/act_0/k", "actor/act_1/k", "critic_1/act_0/k", "critic_1/act_1/k",
+                         "critic_2/act_0/k", "critic_2/act_1/k"]
+        for n in names:
+            np.testing.assert_allclose(log[n][0], k, rtol=1e-7)  # starts at the point's k
+            np.testing.assert_array_equal(log[n][1], log[n][0])  # chunk 1 is uniform-random play: no update
+            assert not np.allclose(log[n][-1], k, rtol=0, atol=1e-7), n  # k was learned
+        # the last row equals the final parameters
+        critic = np.asarray(swept.states.agent.critic["params"]["critics"]["body"]["act_1"]["k"])
+        np.testing.assert_array_equal(log["critic_2/act_1/k"][-1], critic[2 * p:2 * p + 2, 1].astype(np.float64))
+
+
+def test_report_expands_a_sweep_and_plots_return_vs_k(swept, tmp_path):
+    out = str(tmp_path / "report")
+    assert report.main([swept.run_dir, "--out", out]) == 0
+    files = os.listdir(out)
+    assert {"REPORT.md", "figure4.png", "sweep.png", "sweep.svg", "results.json"} <= set(files)
+    md = open(os.path.join(out, "REPORT.md")).read()
+    assert "Return vs activation parameter" in md and "| Hopper-v5 | Swim+learnable | 0.5 |" in md
+    assert os.path.getsize(os.path.join(out, "sweep.png")) > 1000
+
+
+def test_render_refuses_the_sweep_folder_with_a_hint(swept):
+    with pytest.raises(RenderError, match="is a sweep; render one of its points"):
+        load_policy(swept.run_dir, 0)
