@@ -10,6 +10,10 @@ process so machine noise hits every L alike. Reported per L (medians, min–max)
     ms per step (all lanes) = 1000 · t_chunk / chunk_steps,
     cost ratio = t_chunk(L) / (L · t_chunk(1))   (issue 6's target: ≤ 0.6 for L = 5 and 10).
 
+With several devices (GPUs, or ``--host-devices N`` host CPU devices) ``--shard both`` times each
+L twice in the same process, lanes on one device and lanes split over all devices
+(``swim_jax.sharding``), so the effect of sharding is a ratio measured interleaved.
+
 A sweep of P points × S seeds is a program of L = P·S lanes, so the table is its cost too.
 """
 
@@ -33,6 +37,11 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--repeats", type=int, default=3, help="timed chunks per lane count (default 3)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="extra config override, e.g. --set precision=float64 (repeatable)")
+    p.add_argument("--shard", choices=("auto", "off", "both"), default="auto",
+                   help="auto: split lanes over the devices when they divide evenly (as train does); "
+                        "off: one device; both: time each lane count both ways")
+    p.add_argument("--host-devices", type=int, default=0,
+                   help="ask XLA for N host CPU devices (sets XLA_FLAGS before JAX starts)")
     p.add_argument("--out", default=os.path.join("runs", "bench"), help="folder for the JSON (default runs/bench)")
     return p
 
@@ -47,43 +56,57 @@ def _lanes(text: str) -> list[int]:
     return sorted(set(values))
 
 
-def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overrides=(), log=print) -> dict:
-    """Compile one program per lane count, then time ``repeats`` interleaved chunks of each."""
+def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overrides=(), log=print,
+            shard: str = "auto") -> dict:
+    """Compile one program per (lane count, placement), then time ``repeats`` interleaved chunks of each."""
     import jax
     import jax.numpy as jnp
 
     from swim_jax import config as cfgmod
     from swim_jax import train
+    from swim_jax.sharding import lane_sharding, place
 
     base = cfgmod.resolve(config, [f"eval_freq={chunk_steps}", f"total_steps={chunk_steps}",
                                    "learning_starts=0", "replay_size=100000", *overrides])
-    progs, states, compile_s = {}, {}, {}
+    candidates = []  # (lanes, sharding or None)
     for L in lanes:
+        sh, _why = lane_sharding(L)
+        if shard in ("off", "both") or sh is None:
+            candidates.append((L, None))
+        if shard in ("auto", "both") and sh is not None:
+            candidates.append((L, sh))
+    progs, states, compile_s = {}, {}, {}
+    for c in candidates:
+        L, sh = c
         cfg = dataclasses.replace(base, seeds=L, pad_single_seed=False)
         prog = train.programs(cfg)
-        st = prog.init_fn(jnp.asarray(0, jnp.uint32), jnp.arange(L, dtype=jnp.int32))
+        st = place(prog.init_fn(jnp.asarray(0, jnp.uint32), jnp.arange(L, dtype=jnp.int32)), sh)
         t0 = time.perf_counter()
-        st = jax.block_until_ready(prog.chunk_fn(st, jnp.asarray(0, jnp.int32)))
-        compile_s[L] = time.perf_counter() - t0
-        progs[L], states[L] = prog, st
-        log(f"lanes {L}: compiled + first chunk {compile_s[L]:.1f} s")
-    times = {L: [] for L in lanes}
+        st = jax.block_until_ready(place(prog.chunk_fn(st, jnp.asarray(0, jnp.int32)), sh))
+        compile_s[c] = time.perf_counter() - t0
+        progs[c], states[c] = prog, st
+        log(f"lanes {L}{' sharded' if sh else ''}: compiled + first chunk {compile_s[c]:.1f} s")
+    times = {c: [] for c in candidates}
     for r in range(repeats):
-        for L in lanes:
+        for c in candidates:
             t0 = time.perf_counter()
-            states[L] = jax.block_until_ready(
-                progs[L].chunk_fn(states[L], jnp.asarray((r + 1) * chunk_steps, jnp.int32)))
-            times[L].append(time.perf_counter() - t0)
-    one = statistics.median(times[lanes[0]]) / lanes[0] if lanes[0] == 1 else None
+            states[c] = jax.block_until_ready(place(
+                progs[c].chunk_fn(states[c], jnp.asarray((r + 1) * chunk_steps, jnp.int32)), c[1]))
+            times[c].append(time.perf_counter() - t0)
+    first = candidates[0]
+    one = statistics.median(times[first]) if first[0] == 1 else None
     rows = []
-    for L in lanes:
-        med = statistics.median(times[L])
+    for c in candidates:
+        L, sh = c
+        med = statistics.median(times[c])
         rows.append({
-            "lanes": L, "median_s": med, "min_s": min(times[L]), "max_s": max(times[L]),
+            "lanes": L, "devices": len(sh.mesh.devices.flat) if sh is not None else 1,
+            "median_s": med, "min_s": min(times[c]), "max_s": max(times[c]),
             "env_steps_per_s": chunk_steps * L / med, "env_steps_per_s_per_lane": chunk_steps / med,
-            "ms_per_step": 1000 * med / chunk_steps, "compile_plus_first_chunk_s": compile_s[L],
+            "ms_per_step": 1000 * med / chunk_steps, "compile_plus_first_chunk_s": compile_s[c],
             "cost_ratio_vs_1": (med / (L * one)) if one else None,
-            "chunk_compiles": progs[L].chunk_fn._cache_size(),  # 1: nothing recompiled while timing
+            # per program (lane count): one executable per placement, nothing recompiled while timing
+            "chunk_compiles": progs[c].chunk_fn._cache_size(),
         })
     return {
         "benchmark": "train", "config": config, "overrides": list(overrides), "chunk_steps": chunk_steps,
@@ -99,11 +122,11 @@ def markdown(res: dict) -> str:
     """The result as a Markdown table (medians; min–max of the chunk time)."""
     lines = [f"{res['env']} {res['activation']['name']} {res['hidden']} {res['precision']}, "
              f"{res['chunk_steps']} steps per chunk, {res['repeats']} chunks, {res['machine']['device']}",
-             "", "| lanes | env-steps/s (all) | per lane | ms/step | chunk s (min–max) | cost ratio vs 1 | compile + 1st chunk s |",
-             "|---|---|---|---|---|---|---|"]
+             "", "| lanes | devices | env-steps/s (all) | per lane | ms/step | chunk s (min–max) | cost ratio vs 1 | compile + 1st chunk s |",
+             "|---|---|---|---|---|---|---|---|"]
     for r in res["rows"]:
         ratio = "—" if r["cost_ratio_vs_1"] is None else f"{r['cost_ratio_vs_1']:.2f}"
-        lines.append(f"| {r['lanes']} | {r['env_steps_per_s']:.0f} | {r['env_steps_per_s_per_lane']:.0f} | "
+        lines.append(f"| {r['lanes']} | {r['devices']} | {r['env_steps_per_s']:.0f} | {r['env_steps_per_s_per_lane']:.0f} | "
                      f"{r['ms_per_step']:.2f} | {r['median_s']:.2f} ({r['min_s']:.2f}–{r['max_s']:.2f}) | "
                      f"{ratio} | {r['compile_plus_first_chunk_s']:.0f} |")
     return "\n".join(lines)
@@ -111,13 +134,17 @@ def markdown(res: dict) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
+    if args.host_devices > 0:
+        from swim_jax.sharding import set_host_devices
+
+        set_host_devices(args.host_devices)
     from swim_jax.config import ConfigError
 
     try:
         lanes = _lanes(args.lanes)
         if args.chunk_steps < 1 or args.repeats < 1:
             raise ValueError("--chunk-steps and --repeats must be >= 1")
-        res = measure(args.config, lanes, args.chunk_steps, args.repeats, tuple(args.set))
+        res = measure(args.config, lanes, args.chunk_steps, args.repeats, tuple(args.set), shard=args.shard)
     except (ValueError, ConfigError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 2

@@ -59,6 +59,10 @@ class Config:
     # seeds=1 runs a duplicate second lane so the seed is bit-identical to the same seed in a
     # multi-seed run (see swim_jax.train.num_lanes); false: half the work, float-rounding drift
     pad_single_seed: bool = True
+    # lanes (seeds × sweep points) split over devices when several exist and lanes divide evenly
+    shard_lanes: bool = True
+    # > 0: ask XLA for this many host CPU devices (sets XLA_FLAGS before JAX starts; CPU only)
+    host_devices: int = 0
     # hyperparameter sweep: {"agent.activation.k": (0.25, 0.5, 1.0), ...}; the grid (cartesian
     # product) × seeds trains as lanes of one program (python -m swim_jax.sweep); empty = no sweep
     sweep: Mapping[str, tuple[float, ...]] = field(default_factory=dict)
@@ -270,7 +274,7 @@ def validate(cfg: Config) -> Config:
     for k, v in positive.items():
         if v < 1:
             raise ConfigError(f"{k} must be >= 1, got {v}")
-    for k in ("seed", "first_seed", "learning_starts"):
+    for k in ("seed", "first_seed", "learning_starts", "host_devices"):
         if getattr(cfg, k) < 0:
             raise ConfigError(f"{k} must be >= 0, got {getattr(cfg, k)}")
     if cfg.seed >= 2**32 or cfg.first_seed + cfg.seeds >= 2**31:

@@ -30,7 +30,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import yaml
 
-POOL_IGNORED_KEYS = frozenset({"seeds", "first_seed", "seed", "name", "out_dir", "keep_checkpoints"})
+POOL_IGNORED_KEYS = frozenset({"seeds", "first_seed", "seed", "name", "out_dir", "keep_checkpoints",
+                               "shard_lanes", "host_devices"})
 DEFAULT_PARAMS = {"swim": ("k", 0.5), "swish": ("beta", 1.0)}
 
 

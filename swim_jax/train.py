@@ -235,6 +235,10 @@ def run(cfg: Config, run_dir: str, resume: bool = False, log: Callable[[str], No
 
     Sets ``jax_enable_x64`` for the run (float64 iff ``precision=float64``) and restores the
     previous value when it returns, so in-process callers (tests) keep their own setting."""
+    from swim_jax.sharding import set_host_devices
+
+    if cfg.host_devices and not _backends_started():
+        set_host_devices(cfg.host_devices)
     import jax
 
     previous_x64 = bool(jax.config.jax_enable_x64)
@@ -244,11 +248,18 @@ def run(cfg: Config, run_dir: str, resume: bool = False, log: Callable[[str], No
         jax.config.update("jax_enable_x64", previous_x64)
 
 
+def _backends_started() -> bool:
+    from jax._src import xla_bridge
+
+    return bool(xla_bridge._backends)
+
+
 def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None]) -> RunResult:
     import jax
     import jax.numpy as jnp
 
     from swim_jax import learned_params
+    from swim_jax.sharding import lane_sharding, place
     from swim_jax.checkpoint import Checkpointer
 
     t_start = time.time()
@@ -274,11 +285,18 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None]) ->
     seed_ids_np, hparams_np = lane_inputs(cfg, prog.agent.dtype)
     seed_ids = jnp.asarray(seed_ids_np)
     hparams = {k: jnp.asarray(v) for k, v in hparams_np.items()}
-    sweep_args = (hparams,) if hparams else ()  # no sweep: the functions' 2-/4-argument signatures
     base_seed = jnp.asarray(cfg.seed, jnp.uint32)
     init_fn, chunk_fn, eval_fn = prog.init_fn, prog.chunk_fn, prog.eval_fn
     ckpt = Checkpointer(os.path.join(run_dir, "checkpoints"), keep=cfg.keep_checkpoints)
     logs_params = cfg.agent.activation.learnable
+    if cfg.host_devices and jax.devices()[0].platform == "cpu" and jax.device_count() != cfg.host_devices:
+        log(f"warning: host_devices={cfg.host_devices} but JAX started with {jax.device_count()} devices; "
+            f"set XLA_FLAGS=--xla_force_host_platform_device_count={cfg.host_devices} before Python starts")
+    sharding, how = lane_sharding(lanes) if cfg.shard_lanes else (None, "shard_lanes=false")
+    if jax.device_count() > 1:
+        log(f"lanes: {how}")
+    hparams = place(hparams, sharding)
+    sweep_args = (hparams,) if hparams else ()  # no sweep: the functions' 2-/4-argument signatures
 
     evals = np.full((n_evals, lanes, cfg.eval_episodes), np.nan)  # lanes >= points × seeds
     eval_time = 0.0
@@ -310,6 +328,7 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None]) ->
         template = (jax.eval_shape(init_fn, base_seed, seed_ids, *sweep_args),
                     jax.ShapeDtypeStruct(evals.shape, jnp.asarray(evals).dtype))
         states, saved_evals = ckpt.restore(step, template)
+        states = place(states, sharding)
         start_chunk = step // cfg.eval_freq
         evals[:] = np.asarray(saved_evals)
         for out_dir, _ in outputs:
@@ -319,7 +338,7 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None]) ->
         for out_dir, _ in outputs:  # a resume without checkpoints restarts the log too
             if os.path.exists(os.path.join(out_dir, learned_params.FILENAME)):
                 os.remove(os.path.join(out_dir, learned_params.FILENAME))
-        states = init_fn(base_seed, seed_ids, *sweep_args)
+        states = place(init_fn(base_seed, seed_ids, *sweep_args), sharding)
         evaluate(states, 0)
         if resume:
             log(f"no checkpoint in {run_dir}; starting from step 0")
@@ -329,7 +348,8 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None]) ->
     loop_walls: list[float] = []  # whole chunk iterations (train + eval + checkpoint) for the ETA
     for c in range(start_chunk, n_chunks):
         t0 = time.time()
-        states = chunk_fn(states, jnp.asarray(c * cfg.eval_freq, jnp.int32), *sweep_args)
+        # re-placing keeps the input sharding identical every chunk (no recompilation)
+        states = place(chunk_fn(states, jnp.asarray(c * cfg.eval_freq, jnp.int32), *sweep_args), sharding)
         bad = np.asarray(states.bad_step)
         dt = time.time() - t0
         if first_chunk_time is None:
@@ -377,6 +397,7 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None]) ->
         "chunk_compiles": chunk_fn._cache_size(),
         "eval_compiles": eval_fn._cache_size(),
         "platform": jax.devices()[0].platform,
+        "devices": jax.device_count() if sharding is not None else 1,
     }
     for out_dir in {run_dir, *(d for d, _ in outputs)}:
         with open(os.path.join(out_dir, "timing.json"), "w") as f:

@@ -119,6 +119,6 @@ def test_train_benchmark_times_real_programs_without_recompiling(tmp_path):
     rows = json.loads(path.read_text())["rows"]
     assert [r["lanes"] for r in rows] == [1, 2]
     for r in rows:
-        assert r["chunk_compiles"] == 1 and r["min_s"] <= r["median_s"] <= r["max_s"]
+        assert r["chunk_compiles"] == 1 and r["devices"] == 1 and r["min_s"] <= r["median_s"] <= r["max_s"]
         assert r["env_steps_per_s"] == pytest.approx(50 * r["lanes"] / r["median_s"])
     assert rows[0]["cost_ratio_vs_1"] == pytest.approx(1.0)
