@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 
-from envs.base import LocomotionEnv
-from envs.terms import in_open_range, qpos_qvel_obs
+from envs.planar_walker import PlanarWalker
+from envs.terms import in_open_range
 
 
-class HopperV5(LocomotionEnv):
+class HopperV5(PlanarWalker):
     """Hopper-v5: obs qpos[1:], clip(qvel, ±10) (11); reward healthy(1) + vx - 1e-3|a|^2.
 
     Terminates unless qpos[2:], qvel all in (-100, 100), z = qpos[1] > 0.7 and
@@ -17,14 +17,6 @@ class HopperV5(LocomotionEnv):
 
     env_id = "Hopper-v5"
     xml_file = "hopper.xml"
-    frame_skip = 4
-    ctrl_cost_weight = 1e-3
-    healthy_reward = 1.0
-    reset_noise_scale = 5e-3
-
-    def observation(self, data):
-        """Gymnasium Hopper ``_get_obs``: qpos[1:], clip(qvel, -10, 10)."""
-        return qpos_qvel_obs(data, skip_qpos=1, qvel_clip=10.0)
 
     def is_healthy(self, data):
         """Strict ranges: state[2:] in (-100, 100), z in (0.7, inf), angle in (-0.2, 0.2)."""

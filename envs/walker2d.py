@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-from envs.base import LocomotionEnv
-from envs.terms import in_open_range, qpos_qvel_obs
+from envs.planar_walker import PlanarWalker
+from envs.terms import in_open_range
 
 
-class Walker2dV5(LocomotionEnv):
+class Walker2dV5(PlanarWalker):
     """Walker2d-v5 (walker2d_v5.xml, both feet friction 1.9): obs qpos[1:], clip(qvel, ±10) (17).
 
     Reward healthy(1) + vx - 1e-3|a|^2; terminates unless z = qpos[1] in (0.8, 2.0) and
@@ -15,14 +15,6 @@ class Walker2dV5(LocomotionEnv):
 
     env_id = "Walker2d-v5"
     xml_file = "walker2d_v5.xml"
-    frame_skip = 4
-    ctrl_cost_weight = 1e-3
-    healthy_reward = 1.0
-    reset_noise_scale = 5e-3
-
-    def observation(self, data):
-        """Gymnasium Walker2d ``_get_obs``: qpos[1:], clip(qvel, -10, 10)."""
-        return qpos_qvel_obs(data, skip_qpos=1, qvel_clip=10.0)
 
     def is_healthy(self, data):
         """Strict ranges: z in (0.8, 2.0) and angle in (-1, 1)."""
