@@ -442,12 +442,7 @@ def build(args, command: str) -> dict[str, bytes | str]:
     if groups:
         from swim_jax.report_figure import figure4
 
-        with tempfile.TemporaryDirectory() as tmp:
-            paths = [os.path.join(tmp, "figure4.png"), os.path.join(tmp, "figure4.svg")]
-            figure4(groups, paths)
-            for p in paths:
-                with open(p, "rb") as f:
-                    files[os.path.basename(p)] = f.read()
+        files.update(_figure_bytes("figure4", lambda paths: figure4(groups, paths)))
     files["REPORT.md"] = render_markdown(groups, t2, imp, comps, t3, bench_meta, args.score, args.n_boot,
                                          args.boot_seed, command, has_figure=bool(groups))
     if groups:
@@ -455,6 +450,18 @@ def build(args, command: str) -> dict[str, bytes | str]:
     res = results_dict(groups, t2, imp, comps, t3, args.score, args.n_boot, args.boot_seed)
     files["results.json"] = json.dumps(_json_safe(res), indent=1, allow_nan=False) + "\n"
     return files
+
+
+def _figure_bytes(stem: str, draw) -> dict[str, bytes]:
+    """``{stem.png: bytes, stem.svg: bytes}`` from ``draw(paths)`` writing into a temporary folder."""
+    out = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        paths = [os.path.join(tmp, f"{stem}.png"), os.path.join(tmp, f"{stem}.svg")]
+        draw(paths)
+        for p in paths:
+            with open(p, "rb") as f:
+                out[os.path.basename(p)] = f.read()
+    return out
 
 
 def _sweep_section(groups, files: dict) -> str:
@@ -465,12 +472,7 @@ def _sweep_section(groups, files: dict) -> str:
     series = parameter_series(groups)
     if not series:
         return ""
-    with tempfile.TemporaryDirectory() as tmp:
-        paths = [os.path.join(tmp, "sweep.png"), os.path.join(tmp, "sweep.svg")]
-        sweep_figure(series, paths)
-        for p in paths:
-            with open(p, "rb") as f:
-                files[os.path.basename(p)] = f.read()
+    files.update(_figure_bytes("sweep", lambda paths: sweep_figure(series, paths)))
     rows = [[env, _name(act), f"{v:g}", _pm(float(final.mean()), float(final.std(ddof=0))), f"{best:.2f}", str(final.size)]
             for (env, act, key), pts in series.items() for v, final, best in pts]
     return ("\n## Return vs activation parameter (sweeps)\n\n"
