@@ -24,6 +24,7 @@ from agents.td3 import ActivationConfig, TD3Config
 
 CONFIG_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "configs")
 PRECISIONS = ("float32", "float64")
+MATMUL_PRECISIONS = ("highest", "high", "default")
 
 
 class ConfigError(ValueError):
@@ -59,6 +60,9 @@ class Config:
     # seeds=1 runs a duplicate second lane so the seed is bit-identical to the same seed in a
     # multi-seed run (see swim_jax.train.num_lanes); false: half the work, float-rounding drift
     pad_single_seed: bool = True
+    # float32 matmul precision (jax.default_matmul_precision): "highest" = true float32 everywhere;
+    # "default" lets NVIDIA GPUs use TF32 (~1e-3 relative; faster for big matmuls, not comparable with CPU)
+    matmul_precision: str = "highest"
     # lanes (seeds × sweep points) split over devices when several exist and lanes divide evenly
     shard_lanes: bool = True
     # > 0: ask XLA for this many host CPU devices (sets XLA_FLAGS before JAX starts; CPU only)
@@ -263,6 +267,8 @@ def validate(cfg: Config) -> Config:
         raise ConfigError(str(e)) from None
     if act.learnable and not act.params():
         raise ConfigError(f"agent.activation.learnable=true needs an activation with a parameter; valid: swim, swish")
+    if cfg.matmul_precision not in MATMUL_PRECISIONS:
+        raise ConfigError(f"unknown matmul_precision {cfg.matmul_precision!r}; valid: {', '.join(MATMUL_PRECISIONS)}")
     if cfg.precision not in PRECISIONS:
         raise ConfigError(f"unknown precision {cfg.precision!r}; valid: {', '.join(PRECISIONS)}")
     positive = {

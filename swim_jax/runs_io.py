@@ -31,7 +31,7 @@ import numpy as np
 import yaml
 
 POOL_IGNORED_KEYS = frozenset({"seeds", "first_seed", "seed", "name", "out_dir", "keep_checkpoints",
-                               "shard_lanes", "host_devices"})
+                               "shard_lanes", "host_devices"})  # placement only, same experiment
 DEFAULT_PARAMS = {"swim": ("k", 0.5), "swish": ("beta", 1.0)}
 
 

@@ -243,7 +243,8 @@ def run(cfg: Config, run_dir: str, resume: bool = False, log: Callable[[str], No
 
     previous_x64 = bool(jax.config.jax_enable_x64)
     try:
-        return _run(cfg, run_dir, resume, log)
+        with jax.default_matmul_precision(cfg.matmul_precision):  # traced (compiled) under it
+            return _run(cfg, run_dir, resume, log)
     finally:
         jax.config.update("jax_enable_x64", previous_x64)
 
