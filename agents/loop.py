@@ -61,7 +61,7 @@ def seed_keys(base_seed, seed_index: Array) -> tuple[Array, Array, Array, Array]
 def init_state(agent: TD3, env, replay_size: int, base_seed, seed_index: Array, hparams=None) -> TrainState:
     """Fresh per-seed state: initial params, empty buffer, env reset with the seed's env key.
     ``hparams``: this lane's sweep values (``TD3.with_hparams``; a learnable k starts at its value)."""
-    agent = agent.with_hparams(hparams or {})
+    agent = agent.with_hparams(hparams)
     k_init, k_train, k_env, k_eval = seed_keys(base_seed, seed_index)
     dt = agent.dtype
     return TrainState(
@@ -116,7 +116,7 @@ def env_step(agent: TD3, env, learning_starts: int, s: TrainState, t: Array):
 def train_step(agent: TD3, env, learning_starts: int, s: TrainState, t: Array, hparams=None) -> TrainState:
     """One env step and (from ``learning_starts`` on) one TD3 update for one seed at global step t.
     ``hparams``: this lane's sweep values (see ``TD3.with_hparams``); None/empty = ``agent``'s config."""
-    agent = agent.with_hparams(hparams or {})
+    agent = agent.with_hparams(hparams)
     s, k_update = env_step(agent, env, learning_starts, s, t)
     k_sample, k_td3 = jax.random.split(k_update)
     it = t - learning_starts + 1
@@ -142,11 +142,9 @@ def train_step(agent: TD3, env, learning_starts: int, s: TrainState, t: Array, h
 def make_chunk_fn(agent: TD3, env, learning_starts: int, num_steps: int):
     """``chunk(states, t0, hparams) -> states``: ``num_steps`` env steps t0 … t0+num_steps−1 for all
     lanes (states batched on axis 0; t0 an int32 scalar shared by the lanes; ``hparams`` a dict of
-    per-lane sweep values ``{path: [L]}``, empty for a plain multi-seed run). Jit it once."""
+    per-lane sweep values ``{path: [L]}``, None for a plain multi-seed run). Jit it once."""
 
     def chunk(states: TrainState, t0: Array, hparams=None) -> TrainState:
-        hparams = {} if hparams is None else hparams
-
         def body(carry, i):
             t = (t0 + i).astype(jnp.int32)
             carry = jax.vmap(lambda s, h: train_step(agent, env, learning_starts, s, t, h))(carry, hparams)
@@ -169,7 +167,6 @@ def make_eval_fn(agent: TD3, env, episodes: int, max_steps: int):
     values ``{path: [S]}`` (the actor of a swept k uses its lane's k), empty/None for none."""
 
     def evaluate(actor_params, eval_keys: Array, eval_index: Array, random_policy=False, hparams=None) -> Array:
-        hparams = {} if hparams is None else hparams
         keys = jax.vmap(lambda k: jax.random.split(jax.random.fold_in(k, eval_index), episodes))(eval_keys)
         act_keys = jax.vmap(jax.vmap(lambda k: jax.random.fold_in(k, 1)))(keys)
         states = jax.vmap(jax.vmap(env.reset))(keys)

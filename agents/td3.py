@@ -63,6 +63,19 @@ def sweepable_fields(activation: str) -> tuple[str, ...]:
     return ("actor_lr", "critic_lr", "discount", "tau", "policy_noise", "noise_clip", "expl_noise") + own
 
 
+def replace_fields(config: "TD3Config", changes: Mapping[str, Any]) -> "TD3Config":
+    """``config`` with fields set by path relative to it: ``{"tau": 0.01, "activation.k": 2.0}``
+    (values may be traced arrays inside a vmapped program)."""
+    act_changes, top_changes = {}, {}
+    for path, value in changes.items():
+        if path.startswith("activation."):
+            act_changes[path.split(".", 1)[1]] = value
+        else:
+            top_changes[path] = value
+    activation = dataclasses.replace(config.activation, **act_changes)
+    return dataclasses.replace(config, activation=activation, **top_changes)
+
+
 @dataclass(frozen=True)
 class TD3Config:
     """TD3 hyperparameters; defaults = the original TD3 code (REFERENCE.md)."""
@@ -143,22 +156,14 @@ class TD3:
     def critic_tx(self) -> optax.GradientTransformation:
         return optax.adam(self.config.critic_lr)
 
-    def with_hparams(self, hparams: Mapping[str, Array]) -> "TD3":
+    def with_hparams(self, hparams: Mapping[str, Array] | None) -> "TD3":
         """This agent with config fields replaced by per-lane values, e.g. ``{"tau": t,
         "activation.k": k}`` (paths from :func:`sweepable_fields`; values may be traced scalars).
         Inside a vmapped program each lane builds its own agent this way, so one compiled program
-        trains every point of a hyperparameter sweep. An empty mapping returns ``self``."""
+        trains every point of a hyperparameter sweep. None or an empty mapping returns ``self``."""
         if not hparams:
             return self
-        c = self.config
-        act_changes, top_changes = {}, {}
-        for path, value in hparams.items():
-            if path.startswith("activation."):
-                act_changes[path.split(".", 1)[1]] = value
-            else:
-                top_changes[path] = value
-        activation = dataclasses.replace(c.activation, **act_changes)
-        return dataclasses.replace(self, config=dataclasses.replace(c, activation=activation, **top_changes))
+        return dataclasses.replace(self, config=replace_fields(self.config, hparams))
 
     def _low_high(self):
         return jnp.asarray(self.action_low, self.dtype), jnp.asarray(self.action_high, self.dtype)

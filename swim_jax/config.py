@@ -308,11 +308,11 @@ def _validate_sweep(cfg: Config) -> None:
                               f"valid sweep keys: {', '.join(valid)}")
         if len(set(values)) != len(values):
             raise ConfigError(f"sweep.{key}: values must be distinct, got {list(values)}")
+    from swim_jax.activations import validate_params
+
     for point in sweep_points(cfg):
         pc = point_config(cfg, point)
         try:
-            from swim_jax.activations import validate_params
-
             validate_params(pc.agent.activation.name, pc.agent.activation.params())
         except ValueError as e:
             raise ConfigError(f"sweep point {point_label(point)}: {e}") from None
@@ -335,13 +335,9 @@ def point_label(point: Mapping[str, float]) -> str:
 
 def point_config(cfg: Config, point: Mapping[str, float]) -> Config:
     """``cfg`` with the point's values set and no sweep: what a plain run of that point would use."""
-    agent = cfg.agent
-    for key, value in point.items():
-        path = key.split(".")[1:]  # drop "agent"
-        if path[0] == "activation":
-            agent = dataclasses.replace(agent, activation=dataclasses.replace(agent.activation, **{path[1]: value}))
-        else:
-            agent = dataclasses.replace(agent, **{path[0]: value})
+    from agents.td3 import replace_fields
+
+    agent = replace_fields(cfg.agent, {key.split(".", 1)[1]: value for key, value in point.items()})  # drop "agent."
     return dataclasses.replace(cfg, agent=agent, sweep={})
 
 

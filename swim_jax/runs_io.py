@@ -24,6 +24,7 @@ Every problem raises :class:`RunError` with a one-line message.
 from __future__ import annotations
 
 
+import json
 import os
 from dataclasses import dataclass, field
 
@@ -218,8 +219,6 @@ def _point_suffix(path: str, act: dict) -> str:
     p = os.path.join(path, "point.json")
     if not os.path.isfile(p):
         return ""
-    import json
-
     try:
         with open(p) as f:
             values = json.load(f)["values"]

@@ -60,7 +60,7 @@ class RunResult:
 
     run_dir: str
     evaluations: np.ndarray  # [n_evals, seeds, episodes]
-    final_actor: dict  # actor params, leading seed axis (numpy)
+    final_actor: dict  # actor params, leading lane axis: sweep points × seeds (numpy)
     states: object  # final TrainState (device arrays)
     chunk_fn: object  # the jitted chunk (inspect ``_cache_size()``)
     eval_fn: object
@@ -203,15 +203,14 @@ def write_evaluations(run_dir: str, cfg: Config, evals: np.ndarray, n_done: int)
             f.write(",".join(row) + "\n")
 
 
-def _actor_npz(path: str, actor) -> dict:
+def _flat_params(params) -> dict[str, np.ndarray]:
+    """``{"params/body/dense_0/kernel": array, ...}``: the layout of ``final_policy.npz``."""
     import jax
 
-    flat = {
+    return {
         "/".join(str(getattr(k, "key", k)) for k in kp): np.asarray(v)
-        for kp, v in jax.tree_util.tree_flatten_with_path(actor)[0]
+        for kp, v in jax.tree_util.tree_flatten_with_path(params)[0]
     }
-    np.savez(path, **flat)
-    return flat
 
 
 def _first_bad(bad_step: np.ndarray):
@@ -269,6 +268,7 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None]) ->
     points = cfgmod.sweep_points(cfg)
     S, P = cfg.seeds, len(points)
     outputs = _point_outputs(cfg, run_dir, points)
+    point_lanes = [slice(p * S, (p + 1) * S) for p in range(P)]  # lanes of point p
     if not resume:
         with open(os.path.join(run_dir, "config.yaml"), "w") as f:
             f.write(cfgmod.dump(cfg))
@@ -311,14 +311,13 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None]) ->
         evals[j] = r
         if logs_params:
             values = learned_params.activation_params(states.agent.actor, states.agent.critic)
-            for p, (out_dir, point_cfg) in enumerate(outputs):
+            for lanes_p, (out_dir, _) in zip(point_lanes, outputs):
                 learned_params.append(os.path.join(out_dir, learned_params.FILENAME), j * cfg.eval_freq,
-                                      seed_ids_np[p * S:(p + 1) * S],
-                                      {k: v[p * S:(p + 1) * S] for k, v in values.items()})
+                                      seed_ids_np[lanes_p], {k: v[lanes_p] for k, v in values.items()})
 
     def write_all(n_done):
-        for p, (out_dir, point_cfg) in enumerate(outputs):
-            write_evaluations(out_dir, point_cfg, evals[:, p * S:(p + 1) * S], n_done)
+        for lanes_p, (out_dir, point_cfg) in zip(point_lanes, outputs):
+            write_evaluations(out_dir, point_cfg, evals[:, lanes_p], n_done)
         if cfg.sweep:
             write_sweep_table(run_dir, cfg, points, evals[:n_done, : P * S])
 
@@ -379,9 +378,9 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None]) ->
         log(_progress_line(cfg, points, step, evals[c + 1, : P * S], dt, c == start_chunk,
                            time.time() - t_start, typical * (n_chunks - c - 1)))
 
-    for p, (out_dir, _) in enumerate(outputs):
-        final_actor = _actor_npz(os.path.join(out_dir, "final_policy.npz"),
-                                 jax.tree.map(lambda x: x[p * S:(p + 1) * S], states.agent.actor))
+    final_actor = _flat_params(jax.tree.map(lambda x: x[: P * S], states.agent.actor))
+    for lanes_p, (out_dir, _) in zip(point_lanes, outputs):
+        np.savez(os.path.join(out_dir, "final_policy.npz"), **{k: v[lanes_p] for k, v in final_actor.items()})
     wall = time.time() - t_start
     timing = {
         "wall_time_s": wall,
@@ -422,12 +421,12 @@ def _point_outputs(cfg: Config, run_dir: str, points) -> list[tuple[str, Config]
 def write_sweep_table(run_dir: str, cfg: Config, points, evals: np.ndarray) -> None:
     """``sweep.csv``: per point its values, the final and the best evaluation (mean over seeds of
     each seed's mean episode return; std over seeds), from ``evals[n_done, P·seeds, episodes]``."""
-    S = cfg.seeds
     keys = list(cfg.sweep)
+    per_point = evals.mean(axis=2).reshape(evals.shape[0], len(points), cfg.seeds)  # [n, P, seeds]
     with open(os.path.join(run_dir, "sweep.csv"), "w") as f:
         f.write(",".join(["point", *keys, "final_mean", "final_std", "best_mean", "best_step"]) + "\n")
         for p, point in enumerate(points):
-            m = evals[:, p * S:(p + 1) * S].mean(axis=2)  # [n, seeds]
+            m = per_point[:, p]  # [n, seeds]
             curve = m.mean(axis=1)
             best = int(np.argmax(curve))
             row = [cfgmod.point_label(point), *(repr(point[k]) for k in keys),
@@ -446,8 +445,8 @@ def _progress_line(cfg: Config, points, step: int, ev: np.ndarray, dt: float, fi
     line = (f"step {step:>8d}/{cfg.total_steps} | {rate:8.0f} env-steps/s ({rate / (P * S):.0f}/{unit}"
             f"{', incl. compile' if first else ''}) | eval {means.mean():9.2f} ± {means.std():7.2f} over {over}")
     if cfg.sweep and P <= 8:
-        line += " [" + ", ".join(f"{cfgmod.point_label(pt)}: {means[p * S:(p + 1) * S].mean():.0f}"
-                                 for p, pt in enumerate(points)) + "]"
+        point_means = means.reshape(P, S).mean(axis=1)
+        line += " [" + ", ".join(f"{cfgmod.point_label(pt)}: {m:.0f}" for pt, m in zip(points, point_means)) + "]"
     return line + f" | elapsed {_fmt_time(elapsed)} | ETA {_fmt_time(eta)}"
 
 
