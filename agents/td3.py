@@ -149,6 +149,11 @@ class TD3:
         return TwinCritic(**self._network_options())
 
     @property
+    def q1_net(self) -> TwinCritic:
+        """Q₁ alone: applied to the first slice of the twin critics' stacked parameters."""
+        return TwinCritic(num_critics=1, **self._network_options())
+
+    @property
     def actor_tx(self) -> optax.GradientTransformation:
         return optax.adam(self.config.actor_lr)
 
@@ -226,8 +231,10 @@ class TD3:
         return jnp.sum(jnp.mean((q - y[None]) ** 2, axis=1)), jnp.mean(q[0])
 
     def actor_loss(self, actor_params, critic_params, obs: Array) -> Array:
-        """L_μ = −mean(Q_θ1(s, μ_φ(s)))."""
-        q = self.critic_net.apply(critic_params, obs, self.act(actor_params, obs))
+        """L_μ = −mean(Q_θ1(s, μ_φ(s))), evaluating Q₁ only (as the original TD3's ``critic.Q1``):
+        Q₂ would cost a critic forward and backward pass and contribute nothing."""
+        q1_params = jax.tree.map(lambda p: p[:1], critic_params)
+        q = self.q1_net.apply(q1_params, obs, self.act(actor_params, obs))
         return -jnp.mean(q[0])
 
     def update(self, state: TD3State, batch: Transition, key: Array, update_actor) -> tuple[TD3State, UpdateMetrics]:

@@ -56,6 +56,31 @@ def _lanes(text: str) -> list[int]:
     return sorted(set(values))
 
 
+def update_flops(agent) -> float:
+    """Floating-point operations of one TD3 update, averaged over the policy delay.
+
+    Counted by XLA's cost analysis of the compiled single-lane update with and without the actor
+    step: ``((d - 1) · F_critic + F_critic+actor) / d`` with d = ``policy_freq``. Multiplying by
+    updates per second gives the arithmetic rate the training program sustains in its updates.
+    """
+    import jax
+    import jax.numpy as jnp
+
+    from agents.replay import Transition
+
+    b, o, a = agent.config.batch_size, agent.obs_dim, agent.action_dim
+    z = lambda *shape: jnp.zeros(shape, agent.dtype)
+    batch = Transition(z(b, o), z(b, a), z(b), z(b, o), z(b))
+    state = jax.eval_shape(agent.init, jax.random.key(0))
+    counts = []
+    for with_actor in (False, True):
+        fn = jax.jit(lambda s, bt, k, w=with_actor: agent.update(s, bt, k, jnp.asarray(w)))
+        cost = fn.lower(state, batch, jax.random.key(1)).compile().cost_analysis()
+        counts.append(float((cost[0] if isinstance(cost, list) else cost)["flops"]))
+    d = agent.config.policy_freq
+    return ((d - 1) * counts[0] + counts[1]) / d
+
+
 def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overrides=(), log=print,
             shard: str = "auto") -> dict:
     """Compile one program per (lane count, placement), then time ``repeats`` interleaved chunks of each."""
@@ -93,6 +118,7 @@ def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overr
             states[c] = jax.block_until_ready(place(
                 progs[c].chunk_fn(states[c], jnp.asarray((r + 1) * chunk_steps, jnp.int32)), c[1]))
             times[c].append(time.perf_counter() - t0)
+    flops = update_flops(progs[candidates[0]].agent)
     first = candidates[0]
     one = statistics.median(times[first]) if first[0] == 1 else None
     rows = []
@@ -105,6 +131,7 @@ def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overr
             "env_steps_per_s": chunk_steps * L / med, "env_steps_per_s_per_lane": chunk_steps / med,
             "ms_per_step": 1000 * med / chunk_steps, "compile_plus_first_chunk_s": compile_s[c],
             "cost_ratio_vs_1": (med / (L * one)) if one else None,
+            "update_gflop_per_s": flops * chunk_steps * L / med / 1e9,
             # per program (lane count): one executable per placement, nothing recompiled while timing
             "chunk_compiles": progs[c].chunk_fn._cache_size(),
         })
@@ -112,6 +139,7 @@ def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overr
         "benchmark": "train", "config": config, "overrides": list(overrides), "chunk_steps": chunk_steps,
         "repeats": repeats, "env": base.env.id, "activation": dataclasses.asdict(base.agent.activation),
         "hidden": list(base.agent.hidden), "precision": base.precision, "rows": rows,
+        "update_gflop": flops / 1e9,
         "machine": {"platform": jax.devices()[0].platform, "device": str(jax.devices()[0]),
                     "cpu_count": os.cpu_count(), "python": platform.python_version(), "jax": jax.__version__},
         "time": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
@@ -121,14 +149,15 @@ def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overr
 def markdown(res: dict) -> str:
     """The result as a Markdown table (medians; min–max of the chunk time)."""
     lines = [f"{res['env']} {res['activation']['name']} {res['hidden']} {res['precision']}, "
-             f"{res['chunk_steps']} steps per chunk, {res['repeats']} chunks, {res['machine']['device']}",
-             "", "| lanes | devices | env-steps/s (all) | per lane | ms/step | chunk s (min–max) | cost ratio vs 1 | compile + 1st chunk s |",
-             "|---|---|---|---|---|---|---|---|"]
+             f"{res['chunk_steps']} steps per chunk, {res['repeats']} chunks, {res['machine']['device']}; "
+             f"one TD3 update = {res['update_gflop']:.3f} GFLOP (XLA cost analysis)",
+             "", "| lanes | devices | env-steps/s (all) | per lane | ms/step | chunk s (min–max) | cost ratio vs 1 | update GFLOP/s | compile + 1st chunk s |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for r in res["rows"]:
         ratio = "—" if r["cost_ratio_vs_1"] is None else f"{r['cost_ratio_vs_1']:.2f}"
         lines.append(f"| {r['lanes']} | {r['devices']} | {r['env_steps_per_s']:.0f} | {r['env_steps_per_s_per_lane']:.0f} | "
                      f"{r['ms_per_step']:.2f} | {r['median_s']:.2f} ({r['min_s']:.2f}–{r['max_s']:.2f}) | "
-                     f"{ratio} | {r['compile_plus_first_chunk_s']:.0f} |")
+                     f"{ratio} | {r['update_gflop_per_s']:.1f} | {r['compile_plus_first_chunk_s']:.0f} |")
     return "\n".join(lines)
 
 

@@ -122,3 +122,28 @@ def test_train_benchmark_times_real_programs_without_recompiling(tmp_path):
         assert r["chunk_compiles"] == 1 and r["devices"] == 1 and r["min_s"] <= r["median_s"] <= r["max_s"]
         assert r["env_steps_per_s"] == pytest.approx(50 * r["lanes"] / r["median_s"])
     assert rows[0]["cost_ratio_vs_1"] == pytest.approx(1.0)
+
+
+def test_update_flops_matches_hand_count_of_the_matmuls():
+    """XLA's count of one TD3 update (policy delay averaged) vs 2·MACs of its dense layers.
+
+    Hand count per sample, layer sizes o→h1→h2→out: forward = Σ in·out MACs; a backward pass for
+    weight gradients costs in·out per layer plus in·out for the input gradient of every layer that
+    needs one. Critic-only update: target actor + two target critics forward, then two online critics
+    forward + backward (no input gradient at the first layer). Actor step (every ``policy_freq``):
+    actor forward, Q1 forward, Q1 backward to its input, actor backward (no first-layer input grad).
+    ReLU and Adam add a few element-wise flops per unit/parameter, hence the 10 % allowance above.
+    """
+    from agents.td3 import TD3, ActivationConfig, TD3Config
+    from swim_jax.bench_train import update_flops
+
+    o, a, h, b = 5, 2, 64, 64
+    agent = TD3(TD3Config(hidden=(h, h), batch_size=b, activation=ActivationConfig(name="relu")),
+                obs_dim=o, action_low=(-1.0,) * a, action_high=(1.0,) * a)
+    actor = [o * h, h * h, h * a]
+    critic = [(o + a) * h, h * h, h * 1]
+    fwd = sum
+    critic_only = fwd(actor) + 2 * fwd(critic) + 2 * (fwd(critic) + 2 * fwd(critic) - critic[0])
+    actor_step = fwd(actor) + fwd(critic) + fwd(critic) + (2 * fwd(actor) - actor[0])
+    hand = 2 * b * (critic_only + actor_step / agent.config.policy_freq)
+    assert hand <= update_flops(agent) <= 1.10 * hand
