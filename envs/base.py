@@ -34,7 +34,7 @@ DEFAULT_SOLVER_ITERATIONS = 8
 DEFAULT_LS_ITERATIONS = 16
 DEFAULT_MAX_EPISODE_STEPS = 1000
 
-OPTION_NAMES = ("max_episode_steps", "solver_iterations", "ls_iterations", "dtype")
+OPTION_NAMES = ("max_episode_steps", "solver_iterations", "ls_iterations", "solver_tolerance", "dtype")
 
 
 def gymnasium_asset_path(xml_file: str) -> str:
@@ -51,16 +51,23 @@ def gymnasium_asset_path(xml_file: str) -> str:
 
 
 def load_mj_model(xml_file: str, solver_iterations: Optional[int] = None,
-                  ls_iterations: Optional[int] = None) -> mujoco.MjModel:
-    """Load Gymnasium's XML ``xml_file`` as an MjModel, optionally capping the solver iterations.
+                  ls_iterations: Optional[int] = None,
+                  solver_tolerance: Optional[float] = None) -> mujoco.MjModel:
+    """Load Gymnasium's XML ``xml_file`` as an MjModel, optionally overriding solver settings.
 
-    ``None`` keeps the XML's value (Gymnasium: 100 Newton iterations, 50 line-search iterations).
+    ``None`` keeps the XML's value (Gymnasium: 100 Newton iterations, 50 line-search iterations,
+    tolerance 1e-8 on the relative cost improvement). ``solver_tolerance=0`` makes the solver run
+    every allowed iteration (a diagnostic: both MuJoCo C and MJX then converge as far as they can).
     """
     model = mujoco.MjModel.from_xml_path(gymnasium_asset_path(xml_file))
     if solver_iterations is not None:
         model.opt.iterations = int(solver_iterations)
     if ls_iterations is not None:
         model.opt.ls_iterations = int(ls_iterations)
+    if solver_tolerance is not None:
+        if not float(solver_tolerance) >= 0:
+            raise ValueError(f"solver_tolerance must be >= 0 or None, got {solver_tolerance}")
+        model.opt.tolerance = float(solver_tolerance)
     return model
 
 
@@ -101,6 +108,7 @@ class LocomotionEnv(brax_base.Env):
     def __init__(self, max_episode_steps: Optional[int] = DEFAULT_MAX_EPISODE_STEPS,
                  solver_iterations: Optional[int] = DEFAULT_SOLVER_ITERATIONS,
                  ls_iterations: Optional[int] = DEFAULT_LS_ITERATIONS,
+                 solver_tolerance: Optional[float] = None,
                  dtype: Any = None):
         dt_now = float_dtype()
         if dtype is not None and jnp.dtype(dtype) != dt_now:
@@ -111,7 +119,7 @@ class LocomotionEnv(brax_base.Env):
             raise ValueError(f"max_episode_steps must be >= 1 or None, got {max_episode_steps}")
         self.dtype = dt_now
         self.max_episode_steps = None if max_episode_steps is None else int(max_episode_steps)
-        self.mj_model = load_mj_model(self.xml_file, solver_iterations, ls_iterations)
+        self.mj_model = load_mj_model(self.xml_file, solver_iterations, ls_iterations, solver_tolerance)
         self.solver_iterations = int(self.mj_model.opt.iterations)
         self.ls_iterations = int(self.mj_model.opt.ls_iterations)
         self.sys = mjx.put_model(self.mj_model)

@@ -9,7 +9,7 @@ into our MJX env at once (vmap) and steps it with the recorded actions.
 
 from __future__ import annotations
 
-from typing import Callable, Dict
+from typing import Callable, Dict, Optional
 
 import jax
 import jax.numpy as jnp
@@ -31,8 +31,12 @@ def sine_policy(obs: np.ndarray, t: int, rng: np.random.Generator, nu: int) -> n
 
 
 def record(env_id: str, n_steps: int, policy: str = "random", seed: int = 0,
-           max_episode_steps: int = 1000) -> Dict[str, np.ndarray]:
+           max_episode_steps: int = 1000, solver_opt: Optional[Dict[str, float]] = None
+           ) -> Dict[str, np.ndarray]:
     """Record ``n_steps`` Gymnasium steps of ``env_id`` under ``policy`` ('random' | 'sine').
+
+    ``solver_opt`` (e.g. ``{"tolerance": 0.0}``) overrides fields of Gymnasium's ``model.opt``
+    before the first reset: a diagnostic, the equivalence tests record Gymnasium as shipped.
 
     Returns float64 arrays keyed qpos, qvel, qacc_warmstart, xpos (state before each step),
     action, obs, reward, terminated (Gymnasium's outputs of each step) and t (step in episode).
@@ -42,6 +46,8 @@ def record(env_id: str, n_steps: int, policy: str = "random", seed: int = 0,
 
     pol = {"random": random_policy, "sine": sine_policy}[policy]
     genv = gym.make(env_id).unwrapped
+    for name, value in (solver_opt or {}).items():
+        setattr(genv.model.opt, name, value)
     rng = np.random.default_rng(seed)
     genv.reset(seed=seed)
     nu = genv.model.nu
