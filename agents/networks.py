@@ -8,15 +8,22 @@ Critics: Q_j(s, a) = W₃ʲ σ(W₂ʲ σ(W₁ʲ [s; a] + b₁ʲ) + b₂ʲ) + b�
 σ is ``swim_jax.activations.Activation(kind, params, learnable)`` in every hidden layer (a fresh
 layer each time, so a learnable k/beta is per layer). Dense layers use PyTorch's ``nn.Linear``
 default initialisation (weights and biases U(±1/√fan_in)), as in the original TD3 code.
+
+``matmul_dtype`` (opt-in, e.g. ``jnp.bfloat16``): every Dense layer rounds its input, kernel and bias
+to that type and accumulates the products in the network dtype,
+y = Σᵢ bf16(xᵢ)·bf16(Wᵢⱼ) (summed in float32) + bf16(bⱼ); parameters, optimiser state and the
+activations stay in the network dtype. None (default): plain matmuls in the network dtype.
 """
 
 from __future__ import annotations
 
+import functools
 from typing import Any, Mapping, Sequence
 
 import flax.linen as nn
 import jax
 import jax.numpy as jnp
+from jax import lax
 
 from swim_jax.activations import Activation
 
@@ -38,6 +45,16 @@ def torch_linear_bias_init(fan_in: int):
     return init
 
 
+def dense_precision_options(dtype: Any, matmul_dtype: Any = None) -> dict:
+    """``nn.Dense`` keyword options: parameters in ``dtype``; with ``matmul_dtype`` the layer's
+    inputs, kernel and bias are rounded to it and the matmul accumulates in ``dtype``
+    (``preferred_element_type``), so the output is back in ``dtype``."""
+    if matmul_dtype is None or jnp.dtype(matmul_dtype) == jnp.dtype(dtype):
+        return dict(dtype=dtype, param_dtype=dtype)
+    return dict(dtype=matmul_dtype, param_dtype=dtype,
+                dot_general=functools.partial(lax.dot_general, preferred_element_type=dtype))
+
+
 class _Body(nn.Module):
     """Hidden stack + linear head; the activation module is created fresh in every hidden layer."""
 
@@ -47,15 +64,16 @@ class _Body(nn.Module):
     activation_params: Mapping[str, float] | None
     learnable: bool
     dtype: Any
+    matmul_dtype: Any = None
 
     @nn.compact
     def __call__(self, x: Array) -> Array:
         x = x.astype(self.dtype)
+        precision = dense_precision_options(self.dtype, self.matmul_dtype)
         for i, width in enumerate(self.hidden):
             x = nn.Dense(
                 width,
-                dtype=self.dtype,
-                param_dtype=self.dtype,
+                **precision,
                 kernel_init=torch_linear_kernel_init(),
                 bias_init=torch_linear_bias_init(x.shape[-1]),
                 name=f"dense_{i}",
@@ -68,8 +86,7 @@ class _Body(nn.Module):
             )(x)
         return nn.Dense(
             self.out_dim,
-            dtype=self.dtype,
-            param_dtype=self.dtype,
+            **precision,
             kernel_init=torch_linear_kernel_init(),
             bias_init=torch_linear_bias_init(x.shape[-1]),
             name="head",
@@ -89,6 +106,7 @@ class Actor(nn.Module):
     activation_params: Mapping[str, float] | None = None
     learnable: bool = False
     dtype: Any = jnp.float32
+    matmul_dtype: Any = None
 
     @nn.compact
     def __call__(self, obs: Array) -> Array:
@@ -101,6 +119,7 @@ class Actor(nn.Module):
             self.activation_params,
             self.learnable,
             self.dtype,
+            self.matmul_dtype,
             name="body",
         )(obs)
         return jnp.tanh(out) * (high - low) / 2 + (high + low) / 2
@@ -114,13 +133,14 @@ class _Critic(nn.Module):
     activation_params: Mapping[str, float] | None
     learnable: bool
     dtype: Any
+    matmul_dtype: Any = None
 
     @nn.compact
     def __call__(self, obs: Array, action: Array) -> Array:
         x = jnp.concatenate([obs.astype(self.dtype), action.astype(self.dtype)], axis=-1)
         q = _Body(
             self.hidden, 1, self.activation, self.activation_params, self.learnable, self.dtype,
-            name="body",
+            self.matmul_dtype, name="body",
         )(x)
         return q[..., 0]
 
@@ -135,6 +155,7 @@ class TwinCritic(nn.Module):
     learnable: bool = False
     dtype: Any = jnp.float32
     num_critics: int = 2
+    matmul_dtype: Any = None
 
     @nn.compact
     def __call__(self, obs: Array, action: Array) -> Array:
@@ -148,5 +169,5 @@ class TwinCritic(nn.Module):
         )
         return vmapped(
             self.hidden, self.activation, self.activation_params, self.learnable, self.dtype,
-            name="critics",
+            self.matmul_dtype, name="critics",
         )(obs, action)

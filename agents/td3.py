@@ -123,6 +123,7 @@ class TD3:
     action_low: tuple[float, ...]
     action_high: tuple[float, ...]
     dtype: Any = jnp.float32
+    matmul_dtype: Any = None  # e.g. jnp.bfloat16: Dense inputs/weights rounded, float32 accumulation
 
     # ---- derived static objects -------------------------------------------------------------
     @property
@@ -138,6 +139,7 @@ class TD3:
             activation_params=a.params(),
             learnable=a.learnable,
             dtype=self.dtype,
+            matmul_dtype=self.matmul_dtype,
         )
 
     @property

@@ -12,7 +12,9 @@ process so machine noise hits every L alike. Reported per L (medians, min–max)
 
 With several devices (GPUs, or ``--host-devices N`` host CPU devices) ``--shard both`` times each
 L twice in the same process, lanes on one device and lanes split over all devices
-(``swim_jax.sharding``), so the effect of sharding is a ratio measured interleaved.
+(``swim_jax.sharding``), so the effect of sharding is a ratio measured interleaved. Likewise each
+``--variant KEY=VALUE[,KEY=VALUE]`` adds a copy of every program built with those config overrides
+(e.g. ``--variant matmul_dtype=bfloat16``), timed interleaved with the plain ones.
 
 A sweep of P points × S seeds is a program of L = P·S lanes, so the table is its cost too.
 """
@@ -37,6 +39,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--repeats", type=int, default=3, help="timed chunks per lane count (default 3)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="extra config override, e.g. --set precision=float64 (repeatable)")
+    p.add_argument("--variant", action="append", default=[], metavar="KEY=VALUE[,KEY=VALUE]",
+                   help="also time every lane count with these overrides, interleaved (repeatable)")
     p.add_argument("--shard", choices=("auto", "off", "both"), default="auto",
                    help="auto: split lanes over the devices when they divide evenly (as train does); "
                         "off: one device; both: time each lane count both ways")
@@ -82,8 +86,9 @@ def update_flops(agent) -> float:
 
 
 def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overrides=(), log=print,
-            shard: str = "auto") -> dict:
-    """Compile one program per (lane count, placement), then time ``repeats`` interleaved chunks of each."""
+            shard: str = "auto", variants=()) -> dict:
+    """Compile one program per (lane count, placement, variant), then time ``repeats`` interleaved
+    chunks of each. ``variants``: extra override strings "k=v,k=v"; "" (always first) = none."""
     import jax
     import jax.numpy as jnp
 
@@ -93,24 +98,30 @@ def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overr
 
     base = cfgmod.resolve(config, [f"eval_freq={chunk_steps}", f"total_steps={chunk_steps}",
                                    "learning_starts=0", "replay_size=100000", *overrides])
-    candidates = []  # (lanes, sharding or None)
+    variant_cfgs = {"": base}
+    for v in variants:
+        variant_cfgs[v] = cfgmod.resolve(config, [f"eval_freq={chunk_steps}", f"total_steps={chunk_steps}",
+                                                  "learning_starts=0", "replay_size=100000", *overrides,
+                                                  *v.split(",")])
+    candidates = []  # (lanes, sharding or None, variant)
     for L in lanes:
         sh, _why = lane_sharding(L)
-        if shard in ("off", "both") or sh is None:
-            candidates.append((L, None))
-        if shard in ("auto", "both") and sh is not None:
-            candidates.append((L, sh))
+        for v in variant_cfgs:
+            if shard in ("off", "both") or sh is None:
+                candidates.append((L, None, v))
+            if shard in ("auto", "both") and sh is not None:
+                candidates.append((L, sh, v))
     progs, states, compile_s = {}, {}, {}
     for c in candidates:
-        L, sh = c
-        cfg = dataclasses.replace(base, seeds=L, pad_single_seed=False)
+        L, sh, v = c
+        cfg = dataclasses.replace(variant_cfgs[v], seeds=L, pad_single_seed=False)
         prog = train.programs(cfg)
         st = place(prog.init_fn(jnp.asarray(0, jnp.uint32), jnp.arange(L, dtype=jnp.int32)), sh)
         t0 = time.perf_counter()
         st = jax.block_until_ready(place(prog.chunk_fn(st, jnp.asarray(0, jnp.int32)), sh))
         compile_s[c] = time.perf_counter() - t0
         progs[c], states[c] = prog, st
-        log(f"lanes {L}{' sharded' if sh else ''}: compiled + first chunk {compile_s[c]:.1f} s")
+        log(f"lanes {L}{' sharded' if sh else ''}{' ' + v if v else ''}: compiled + first chunk {compile_s[c]:.1f} s")
     times = {c: [] for c in candidates}
     for r in range(repeats):
         for c in candidates:
@@ -119,24 +130,28 @@ def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overr
                 progs[c].chunk_fn(states[c], jnp.asarray((r + 1) * chunk_steps, jnp.int32)), c[1]))
             times[c].append(time.perf_counter() - t0)
     flops = update_flops(progs[candidates[0]].agent)
-    first = candidates[0]
-    one = statistics.median(times[first]) if first[0] == 1 else None
+    # cost ratios against the first (single-device) 1-lane program of the same variant
+    one = {}
+    for L, _sh, v in candidates:
+        if L == 1 and v not in one:
+            one[v] = statistics.median(times[(L, _sh, v)])
     rows = []
     for c in candidates:
-        L, sh = c
+        L, sh, v = c
         med = statistics.median(times[c])
         rows.append({
-            "lanes": L, "devices": len(sh.mesh.devices.flat) if sh is not None else 1,
+            "lanes": L, "devices": len(sh.mesh.devices.flat) if sh is not None else 1, "variant": v,
             "median_s": med, "min_s": min(times[c]), "max_s": max(times[c]),
             "env_steps_per_s": chunk_steps * L / med, "env_steps_per_s_per_lane": chunk_steps / med,
             "ms_per_step": 1000 * med / chunk_steps, "compile_plus_first_chunk_s": compile_s[c],
-            "cost_ratio_vs_1": (med / (L * one)) if one else None,
+            "cost_ratio_vs_1": (med / (L * one[v])) if v in one else None,
             "update_gflop_per_s": flops * chunk_steps * L / med / 1e9,
             # per program (lane count): one executable per placement, nothing recompiled while timing
             "chunk_compiles": progs[c].chunk_fn._cache_size(),
         })
     return {
-        "benchmark": "train", "config": config, "overrides": list(overrides), "chunk_steps": chunk_steps,
+        "benchmark": "train", "config": config, "overrides": list(overrides), "variants": list(variants),
+        "chunk_steps": chunk_steps,
         "repeats": repeats, "env": base.env.id, "activation": dataclasses.asdict(base.agent.activation),
         "hidden": list(base.agent.hidden), "precision": base.precision, "rows": rows,
         "update_gflop": flops / 1e9,
@@ -151,11 +166,11 @@ def markdown(res: dict) -> str:
     lines = [f"{res['env']} {res['activation']['name']} {res['hidden']} {res['precision']}, "
              f"{res['chunk_steps']} steps per chunk, {res['repeats']} chunks, {res['machine']['device']}; "
              f"one TD3 update = {res['update_gflop']:.3f} GFLOP (XLA cost analysis)",
-             "", "| lanes | devices | env-steps/s (all) | per lane | ms/step | chunk s (min–max) | cost ratio vs 1 | update GFLOP/s | compile + 1st chunk s |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             "", "| lanes | devices | variant | env-steps/s (all) | per lane | ms/step | chunk s (min–max) | cost ratio vs 1 | update GFLOP/s | compile + 1st chunk s |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     for r in res["rows"]:
         ratio = "—" if r["cost_ratio_vs_1"] is None else f"{r['cost_ratio_vs_1']:.2f}"
-        lines.append(f"| {r['lanes']} | {r['devices']} | {r['env_steps_per_s']:.0f} | {r['env_steps_per_s_per_lane']:.0f} | "
+        lines.append(f"| {r['lanes']} | {r['devices']} | {r.get('variant') or '—'} | {r['env_steps_per_s']:.0f} | {r['env_steps_per_s_per_lane']:.0f} | "
                      f"{r['ms_per_step']:.2f} | {r['median_s']:.2f} ({r['min_s']:.2f}–{r['max_s']:.2f}) | "
                      f"{ratio} | {r['update_gflop_per_s']:.1f} | {r['compile_plus_first_chunk_s']:.0f} |")
     return "\n".join(lines)
@@ -173,7 +188,8 @@ def main(argv: list[str] | None = None) -> int:
         lanes = _lanes(args.lanes)
         if args.chunk_steps < 1 or args.repeats < 1:
             raise ValueError("--chunk-steps and --repeats must be >= 1")
-        res = measure(args.config, lanes, args.chunk_steps, args.repeats, tuple(args.set), shard=args.shard)
+        res = measure(args.config, lanes, args.chunk_steps, args.repeats, tuple(args.set), shard=args.shard,
+                      variants=tuple(args.variant))
     except (ValueError, ConfigError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 2

@@ -25,6 +25,7 @@ from agents.td3 import ActivationConfig, TD3Config
 CONFIG_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "configs")
 PRECISIONS = ("float32", "float64")
 MATMUL_PRECISIONS = ("highest", "high", "default")
+MATMUL_DTYPES = ("auto", "bfloat16")
 
 
 class ConfigError(ValueError):
@@ -63,6 +64,9 @@ class Config:
     # float32 matmul precision (jax.default_matmul_precision): "highest" = true float32 everywhere;
     # "default" lets NVIDIA GPUs use TF32 (~1e-3 relative; faster for big matmuls, not comparable with CPU)
     matmul_precision: str = "highest"
+    # network matmul inputs: "auto" = the run's precision; "bfloat16" = inputs, weights and biases
+    # rounded to bfloat16, products accumulated in float32 (opt-in; parameters stay in precision)
+    matmul_dtype: str = "auto"
     # lanes (seeds × sweep points) split over devices when several exist and lanes divide evenly
     shard_lanes: bool = True
     # > 0: ask XLA for this many host CPU devices (sets XLA_FLAGS before JAX starts; CPU only)
@@ -269,6 +273,8 @@ def validate(cfg: Config) -> Config:
         raise ConfigError(f"agent.activation.learnable=true needs an activation with a parameter; valid: swim, swish")
     if cfg.matmul_precision not in MATMUL_PRECISIONS:
         raise ConfigError(f"unknown matmul_precision {cfg.matmul_precision!r}; valid: {', '.join(MATMUL_PRECISIONS)}")
+    if cfg.matmul_dtype not in MATMUL_DTYPES:
+        raise ConfigError(f"unknown matmul_dtype {cfg.matmul_dtype!r}; valid: {', '.join(MATMUL_DTYPES)}")
     if cfg.precision not in PRECISIONS:
         raise ConfigError(f"unknown precision {cfg.precision!r}; valid: {', '.join(PRECISIONS)}")
     positive = {

@@ -94,6 +94,7 @@ def build(cfg: Config):
         tuple(float(x) for x in np.asarray(env.action_low)),
         tuple(float(x) for x in np.asarray(env.action_high)),
         dtype=dtype,
+        matmul_dtype=jnp.bfloat16 if cfg.matmul_dtype == "bfloat16" else None,
     )
     return env, eval_env, agent
 

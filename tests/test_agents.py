@@ -193,6 +193,42 @@ def test_learnable_activation_is_a_per_layer_param_that_trains():
     assert np.all(np.asarray(st2.critic["params"]["critics"]["body"]["act_1"]["k"]) != 0.5)
 
 
+def test_bfloat16_matmuls_round_inputs_and_weights_and_accumulate_in_float32():
+    """matmul_dtype=bfloat16: each layer equals a float64 reference built from bfloat16-rounded
+    input, kernel and bias (so the products are summed at >= float32 accuracy, not in bfloat16),
+    parameters stay float32, and one TD3 update trains them."""
+    import ml_dtypes
+
+    bf16 = lambda a: np.asarray(np.asarray(a, np.float32).astype(ml_dtypes.bfloat16), np.float64)
+    actor = Actor(LOW, HIGH, hidden=(64, 64), activation="relu", matmul_dtype=jnp.bfloat16)
+    obs = jax.random.normal(jax.random.PRNGKey(1), (32, OBS))
+    pa = actor.init(jax.random.PRNGKey(0), obs)
+    assert all(x.dtype == jnp.float32 for x in jax.tree.leaves(pa))
+    x, body = np.asarray(obs, np.float64), pa["params"]["body"]
+    for name in ("dense_0", "dense_1", "head"):
+        x = bf16(x) @ bf16(body[name]["kernel"]) + bf16(body[name]["bias"])
+        x = np.maximum(x, 0.0) if name != "head" else x
+        x = np.asarray(x, np.float32)  # the next layer sees the float32 activation
+    lo, hi = np.asarray(LOW), np.asarray(HIGH)
+    ref = np.tanh(x.astype(np.float64)) * (hi - lo) / 2 + (hi + lo) / 2
+    got = np.asarray(jax.jit(actor.apply)(pa, obs), np.float64)
+    np.testing.assert_allclose(got, ref, atol=1e-5)
+    plain = np.asarray(Actor(LOW, HIGH, hidden=(64, 64), activation="relu").apply(pa, obs), np.float64)
+    assert np.max(np.abs(plain - got)) > 1e-4  # the rounding is really applied
+    agent = TD3(TD3Config(hidden=(16, 16), batch_size=4), OBS, (-1.0,) * ACT, (1.0,) * ACT,
+                matmul_dtype=jnp.bfloat16)
+    st = agent.init(jax.random.PRNGKey(0))
+    rng = np.random.default_rng(0)
+    batch = replay.Transition(*(jnp.asarray(rng.normal(size=sh), jnp.float32) for sh in
+                                [(4, OBS), (4, ACT), (4,), (4, OBS), (4,)]))
+    st2, m = agent.update(st, batch, jax.random.PRNGKey(1), jnp.asarray(True))
+    assert np.isfinite(float(m.critic_loss)) and np.isfinite(float(m.actor_loss))
+    for before, after in ((st.actor, st2.actor), (st.critic, st2.critic)):
+        leaves = jax.tree.leaves(after)
+        assert all(x.dtype == jnp.float32 for x in leaves)
+        assert not np.allclose(jax.tree.leaves(before)[0], leaves[0])
+
+
 def test_unknown_activation_raises():
     agent = TD3(TD3Config(hidden=(4,), activation=ActivationConfig(name="nope")), OBS, (-1.0,), (1.0,))
     with pytest.raises(ValueError, match="valid"):

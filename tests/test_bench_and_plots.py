@@ -98,7 +98,8 @@ def test_env_benchmark_runs_through_the_bench_cli(tmp_path):
 
 
 @pytest.mark.parametrize("args,needle", [(["--lanes", "0,2"], "positive integers"), (["--lanes", "x"], "positive integers"),
-                                         (["--config", "nope"], "valid configs"), (["--repeats", "0"], ">= 1")])
+                                         (["--config", "nope"], "valid configs"), (["--repeats", "0"], ">= 1"),
+                                         (["--variant", "matmul_dtype=float16"], "valid: auto, bfloat16")])
 def test_train_benchmark_bad_input_exit_2_nothing_written(tmp_path, capsys, args, needle):
     from swim_jax.bench_train import main as bench_train_main
 
@@ -114,14 +115,16 @@ def test_train_benchmark_times_real_programs_without_recompiling(tmp_path):
 
     tiny = ["--set", "agent.hidden=[16]", "--set", "agent.batch_size=16"]
     assert bench_train_main(["--config", "hopper_relu", "--lanes", "1,2", "--chunk-steps", "50",
-                             "--repeats", "2", *tiny, "--out", str(tmp_path)]) == 0
+                             "--repeats", "2", *tiny, "--variant", "matmul_dtype=bfloat16",
+                             "--out", str(tmp_path)]) == 0
     (path,) = tmp_path.glob("train-*.json")
     rows = json.loads(path.read_text())["rows"]
-    assert [r["lanes"] for r in rows] == [1, 2]
+    assert [(r["lanes"], r["variant"]) for r in rows] == [(1, ""), (1, "matmul_dtype=bfloat16"),
+                                                         (2, ""), (2, "matmul_dtype=bfloat16")]
     for r in rows:
         assert r["chunk_compiles"] == 1 and r["devices"] == 1 and r["min_s"] <= r["median_s"] <= r["max_s"]
         assert r["env_steps_per_s"] == pytest.approx(50 * r["lanes"] / r["median_s"])
-    assert rows[0]["cost_ratio_vs_1"] == pytest.approx(1.0)
+    assert rows[0]["cost_ratio_vs_1"] == pytest.approx(1.0) and rows[1]["cost_ratio_vs_1"] == pytest.approx(1.0)
 
 
 def test_update_flops_matches_hand_count_of_the_matmuls():

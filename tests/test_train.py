@@ -174,6 +174,7 @@ def test_nan_detection_names_seed_step_and_quantity(vmapped):
         (["config=walker_swim", "agent.activation.name=gelu"], "valid: hard_swish, mish, relu, swim, swish"),
         (["config=walker_swim", "precision=float16"], "valid: float32, float64"),
         (["config=walker_swim", "matmul_precision=tf32"], "valid: highest, high, default"),
+        (["config=walker_swim", "matmul_dtype=float16"], "valid: auto, bfloat16"),
         (["config=walker_swim", "total_steps=12345"], "multiple of eval_freq"),
         (["config=walker_swim", "bogus"], "expected config=<name>"),
         ([], "valid configs:"),
