@@ -151,8 +151,9 @@ def programs(cfg: Config) -> Programs:
     from agents import loop
 
     _setup_precision(cfg)
+    # every config field that changes the built program (seeds only change the lane shapes)
     key = (cfg.env, cfg.agent, cfg.learning_starts, cfg.eval_freq, cfg.eval_episodes,
-           cfg.replay_size, cfg.precision)
+           cfg.replay_size, cfg.precision, cfg.matmul_dtype, cfg.matmul_precision)
     if key not in _PROGRAMS:
         env, eval_env, agent = build(cfg)
         def init_lanes(base, seed_ids, hparams=None):

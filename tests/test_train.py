@@ -272,6 +272,17 @@ def test_resume_after_sigkill_matches_uninterrupted_run(tmp_path):
         np.testing.assert_array_equal(got[k], want[k], err_msg=k)
 
 
+def test_programs_are_rebuilt_for_each_matmul_setting():
+    """The program cache keys on every field that changes the program: a bfloat16-matmul config
+    must not get the cached float32 program (building only, no compile)."""
+    plain = train.programs(tiny("seeds=2"))
+    bf16 = train.programs(tiny("seeds=2", "matmul_dtype=bfloat16"))
+    assert bf16 is not plain and plain.agent.matmul_dtype is None
+    assert jnp.dtype(bf16.agent.matmul_dtype) == jnp.bfloat16
+    assert train.programs(tiny("seeds=2", "matmul_precision=default")) is not plain
+    assert train.programs(tiny("seeds=5")) is plain  # seeds only change the lane shapes
+
+
 def test_float64_precision_builds_everything_in_float64():
     """precision=float64: env physics, observations, params, Adam state and replay are all f64
     (init program only; the full f64 chunk compiles too slowly for the default run)."""
