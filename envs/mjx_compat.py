@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 from mujoco.mjx._src import collision_driver, collision_primitive, forward, math, scan
 from mujoco.mjx._src.types import GeomType, JointType
 
@@ -49,40 +50,35 @@ def plane_capsule_c_frame(plane, cap):
     return tuple(jnp.concatenate(x) for x in zip(*out))
 
 
-_RK4_A = (0.5, 0.5, 1.0)  # the classic tableau is diagonal: stage i uses stage i-1 only
-_RK4_B = (1.0 / 6.0, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 6.0)
+# MJX's own classic RK4 tableau (diagonal A: stage i uses stage i-1 only)
+_RK4_A = tuple(float(a) for a in np.diag(forward._RK4_A))
+_RK4_B = tuple(float(b) for b in forward._RK4_B)
 
 
-def _qpos_rate(jnt_types, qpos, qvel):
-    """dqpos/dt per joint: hinge/slide qvel; ball/free quaternion q * (0, w) / 2 (w local)."""
-    out, qi, vi = [], 0, 0
-    for jnt_type in jnt_types:
-        if jnt_type == JointType.FREE:
-            out += [qvel[vi:vi + 3], 0.5 * math.quat_mul_axis(qpos[qi + 3:qi + 7], qvel[vi + 3:vi + 6])]
-            qi, vi = qi + 7, vi + 6
-        elif jnt_type == JointType.BALL:
-            out.append(0.5 * math.quat_mul_axis(qpos[qi:qi + 4], qvel[vi:vi + 3]))
-            qi, vi = qi + 4, vi + 3
-        else:
-            out.append(qvel[vi:vi + 1])
-            qi, vi = qi + 1, vi + 1
-    return jnp.concatenate(out) if out else jnp.empty((0,))
+def _joint_wise(rot, lin):
+    """A ``scan.flat`` body mapping (jnt_types, qpos, qvel) to a qpos-sized vector joint by joint:
+    ``rot(q, w)`` for a ball/free quaternion and its angular velocity, ``lin(p, v)`` for every
+    other coordinate (free-joint position, hinge, slide) and its velocity."""
+    def body(jnt_types, qpos, qvel):
+        out, qi, vi = [], 0, 0
+        for jnt_type in jnt_types:
+            if jnt_type == JointType.FREE:
+                out += [lin(qpos[qi:qi + 3], qvel[vi:vi + 3]), rot(qpos[qi + 3:qi + 7], qvel[vi + 3:vi + 6])]
+                qi, vi = qi + 7, vi + 6
+            elif jnt_type == JointType.BALL:
+                out.append(rot(qpos[qi:qi + 4], qvel[vi:vi + 3]))
+                qi, vi = qi + 4, vi + 3
+            else:
+                out.append(lin(qpos[qi:qi + 1], qvel[vi:vi + 1]))
+                qi, vi = qi + 1, vi + 1
+        return jnp.concatenate(out) if out else jnp.empty((0,))
+    return body
 
 
-def _normalize_quats(jnt_types, qpos):
-    """qpos with every ball/free-joint quaternion scaled to unit norm."""
-    out, qi = [], 0
-    for jnt_type in jnt_types:
-        if jnt_type == JointType.FREE:
-            out += [qpos[qi:qi + 3], math.normalize(qpos[qi + 3:qi + 7])]
-            qi += 7
-        elif jnt_type == JointType.BALL:
-            out.append(math.normalize(qpos[qi:qi + 4]))
-            qi += 4
-        else:
-            out.append(qpos[qi:qi + 1])
-            qi += 1
-    return jnp.concatenate(out) if out else jnp.empty((0,))
+# dqpos/dt: qvel for linear coordinates, q * (0, w) / 2 (w local) for quaternions
+_qpos_rate = _joint_wise(rot=lambda q, w: 0.5 * math.quat_mul_axis(q, w), lin=lambda p, v: v)
+# qpos with every quaternion scaled to unit norm
+_normalize_quats = _joint_wise(rot=lambda q, w: math.normalize(q), lin=lambda p, v: p)
 
 
 def rungekutta4_c(m, d):
@@ -94,7 +90,7 @@ def rungekutta4_c(m, d):
     """
     h = m.opt.timestep
     rate = lambda qpos, qvel: scan.flat(m, _qpos_rate, "jqv", "q", m.jnt_type, qpos, qvel)
-    unit = lambda qpos: scan.flat(m, _normalize_quats, "jq", "q", m.jnt_type, qpos)
+    unit = lambda qpos: scan.flat(m, _normalize_quats, "jqv", "q", m.jnt_type, qpos, d0.qvel)
     d0 = d
     k = (rate(d0.qpos, d0.qvel), d0.qacc, d0.act_dot)
     total = jax.tree_util.tree_map(lambda x: _RK4_B[0] * x, k)

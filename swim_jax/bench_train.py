@@ -96,13 +96,10 @@ def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overr
     from swim_jax import train
     from swim_jax.sharding import lane_sharding, place
 
-    base = cfgmod.resolve(config, [f"eval_freq={chunk_steps}", f"total_steps={chunk_steps}",
-                                   "learning_starts=0", "replay_size=100000", *overrides])
-    variant_cfgs = {"": base}
-    for v in variants:
-        variant_cfgs[v] = cfgmod.resolve(config, [f"eval_freq={chunk_steps}", f"total_steps={chunk_steps}",
-                                                  "learning_starts=0", "replay_size=100000", *overrides,
-                                                  *v.split(",")])
+    bench = [f"eval_freq={chunk_steps}", f"total_steps={chunk_steps}", "learning_starts=0",
+             "replay_size=100000", *overrides]
+    variant_cfgs = {v: cfgmod.resolve(config, [*bench, *(v.split(",") if v else [])]) for v in ("", *variants)}
+    base = variant_cfgs[""]
     candidates = []  # (lanes, sharding or None, variant)
     for L in lanes:
         sh, _why = lane_sharding(L)

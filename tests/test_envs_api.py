@@ -24,6 +24,16 @@ def test_unknown_id_and_option_raise_one_line():
     assert "\n" not in msg and "frame_skip" in msg and "max_episode_steps" in msg
 
 
+def test_solver_options_reach_the_model_and_bad_values_raise_one_line():
+    env = envs.make("Hopper-v5", solver_tolerance=0.0, solver_iterations=3, ls_iterations=5)
+    assert (env.mj_model.opt.tolerance, env.mj_model.opt.iterations, env.mj_model.opt.ls_iterations) == (0.0, 3, 5)
+    assert envs.make("Hopper-v5").mj_model.opt.tolerance == pytest.approx(1e-8)  # the XML's value
+    for bad in (-1e-3, float("nan")):
+        with pytest.raises(ValueError) as e:
+            envs.make("Hopper-v5", solver_tolerance=bad)
+        assert "\n" not in str(e.value) and "solver_tolerance must be >= 0" in str(e.value)
+
+
 def test_dtype_option_checked_against_x64():
     with pytest.raises(ValueError):
         envs.make("Hopper-v5", dtype=jnp.float64)  # default run is float32
