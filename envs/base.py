@@ -25,6 +25,8 @@ import numpy as np
 from brax.envs import base as brax_base
 from mujoco import mjx
 
+from envs import mjx_solver
+
 State = brax_base.State
 
 # Defaults chosen from the measured trade-off in docs/ENVS.md: 8 Newton iterations / 16 line-search
@@ -34,7 +36,8 @@ DEFAULT_SOLVER_ITERATIONS = 8
 DEFAULT_LS_ITERATIONS = 16
 DEFAULT_MAX_EPISODE_STEPS = 1000
 
-OPTION_NAMES = ("max_episode_steps", "solver_iterations", "ls_iterations", "solver_tolerance", "dtype")
+OPTION_NAMES = ("max_episode_steps", "solver_iterations", "ls_iterations", "solver_tolerance",
+                "solver_impl", "dtype")
 
 
 def gymnasium_asset_path(xml_file: str) -> str:
@@ -109,6 +112,7 @@ class LocomotionEnv(brax_base.Env):
                  solver_iterations: Optional[int] = DEFAULT_SOLVER_ITERATIONS,
                  ls_iterations: Optional[int] = DEFAULT_LS_ITERATIONS,
                  solver_tolerance: Optional[float] = None,
+                 solver_impl: str = "c",
                  dtype: Any = None):
         dt_now = float_dtype()
         if dtype is not None and jnp.dtype(dtype) != dt_now:
@@ -117,6 +121,10 @@ class LocomotionEnv(brax_base.Env):
                 "the physics dtype follows jax_enable_x64 (set it before envs.make)")
         if max_episode_steps is not None and int(max_episode_steps) < 1:
             raise ValueError(f"max_episode_steps must be >= 1 or None, got {max_episode_steps}")
+        if solver_impl not in mjx_solver.IMPLEMENTATIONS:
+            raise ValueError(f"solver_impl must be one of {', '.join(mjx_solver.IMPLEMENTATIONS)}, "
+                             f"got {solver_impl!r}")
+        self.solver_impl = solver_impl
         self.dtype = dt_now
         self.max_episode_steps = None if max_episode_steps is None else int(max_episode_steps)
         self.mj_model = load_mj_model(self.xml_file, solver_iterations, ls_iterations, solver_tolerance)
@@ -153,12 +161,14 @@ class LocomotionEnv(brax_base.Env):
     def physics_reset(self, qpos: jax.Array, qvel: jax.Array) -> mjx.Data:
         """MJX data at ``(qpos, qvel)`` after ``mj_forward``, like Gymnasium's ``set_state``."""
         data = self._data0.replace(qpos=qpos.astype(self.dtype), qvel=qvel.astype(self.dtype))
-        return mjx.forward(self.sys, data)
+        with mjx_solver.implementation(self.solver_impl):
+            return mjx.forward(self.sys, data)
 
     def physics_step(self, data: mjx.Data, action: jax.Array) -> mjx.Data:
         """``frame_skip`` MJX steps with ``ctrl = action`` (then cfrc_ext if the task needs it)."""
         data = data.replace(ctrl=action.astype(self.dtype))
-        data = jax.lax.fori_loop(0, self.frame_skip, lambda _, d: mjx.step(self.sys, d), data)
+        with mjx_solver.implementation(self.solver_impl):
+            data = jax.lax.fori_loop(0, self.frame_skip, lambda _, d: mjx.step(self.sys, d), data)
         if self.needs_post_constraint:
             data = mjx.rne_postconstraint(self.sys, data)
         return data

@@ -25,6 +25,7 @@ import jax.numpy as jnp
 import mujoco
 import numpy as np
 
+from envs.mjx_solver import IMPLEMENTATIONS
 from envs.registry import ENV_IDS, make
 
 DEFAULT_ENVS = ("Hopper-v5", "Walker2d-v5", "HalfCheetah-v5", "Swimmer-v5", "Ant-v5")
@@ -67,30 +68,39 @@ def make_rollout(env, batch: int, scan_len: int, shard: bool):
 
 
 def bench_env(env_id: str, batches: Sequence[int], scan_len: int, repeats: int,
-              native_steps: int, options: Dict, shard: bool) -> List[Dict]:
-    """Measure one env at every batch size; native runs interleaved with each MJX repeat."""
-    env = make(env_id, **options)
+              native_steps: int, options: Dict, shard: bool,
+              solver_impls: Sequence[str] = ("c",)) -> List[Dict]:
+    """Measure one env at every batch size, one row per solver implementation; for each batch the
+    implementations are compiled first, then every repeat times native MuJoCo and each of them."""
+    env_by_impl = {impl: make(env_id, **options, solver_impl=impl) for impl in solver_impls}
     rows = []
     for batch in batches:
-        f, states, key = make_rollout(env, batch, scan_len, shard)
-        t0 = time.perf_counter()
-        compiled = f.lower(states, key).compile()
-        compile_s = time.perf_counter() - t0
-        jax.block_until_ready(compiled(states, key))  # warm-up
-        mjx_rates, native_rates = [], []
-        for r in range(repeats):
-            native_rates.append(native_steps_per_second(env, native_steps, seed=r))
+        compiled, compile_s, rates = {}, {}, {impl: [] for impl in solver_impls}
+        for impl, env in env_by_impl.items():
+            f, states, key = make_rollout(env, batch, scan_len, shard)
             t0 = time.perf_counter()
-            jax.block_until_ready(compiled(states, jax.random.PRNGKey(r + 2)))
-            mjx_rates.append(batch * scan_len / (time.perf_counter() - t0))
-        mjx_med, nat_med = statistics.median(mjx_rates), statistics.median(native_rates)
-        row = dict(env=env_id, batch=batch, scan_len=scan_len, compile_s=round(compile_s, 2),
-                   mjx_steps_per_s=round(mjx_med, 1), native_steps_per_s=round(nat_med, 1),
-                   ratio_vs_one_native_core=round(mjx_med / nat_med, 4),
-                   mjx_all=[round(x, 1) for x in mjx_rates],
-                   native_all=[round(x, 1) for x in native_rates])
-        print(json.dumps(row), flush=True)
-        rows.append(row)
+            compiled[impl] = (f.lower(states, key).compile(), states)
+            compile_s[impl] = time.perf_counter() - t0
+            jax.block_until_ready(compiled[impl][0](states, key))  # warm-up
+        native_rates = []
+        for r in range(repeats):
+            native_rates.append(native_steps_per_second(env_by_impl[solver_impls[0]], native_steps, seed=r))
+            for impl in solver_impls[r % len(solver_impls):] + solver_impls[:r % len(solver_impls)]:
+                fn, states = compiled[impl]
+                t0 = time.perf_counter()
+                jax.block_until_ready(fn(states, jax.random.PRNGKey(r + 2)))
+                rates[impl].append(batch * scan_len / (time.perf_counter() - t0))
+        nat_med = statistics.median(native_rates)
+        for impl in solver_impls:
+            mjx_med = statistics.median(rates[impl])
+            row = dict(env=env_id, batch=batch, scan_len=scan_len, solver_impl=impl,
+                       compile_s=round(compile_s[impl], 2),
+                       mjx_steps_per_s=round(mjx_med, 1), native_steps_per_s=round(nat_med, 1),
+                       ratio_vs_one_native_core=round(mjx_med / nat_med, 4),
+                       mjx_all=[round(x, 1) for x in rates[impl]],
+                       native_all=[round(x, 1) for x in native_rates])
+            print(json.dumps(row), flush=True)
+            rows.append(row)
     return rows
 
 
@@ -103,7 +113,8 @@ def main(argv: Optional[Sequence[str]] = None) -> Dict:
 
     Flags: --envs (comma list, default the five v5 envs), --batches (default 1,8,64,256,1024),
     --scan-len (default 50), --repeats (3), --native-steps (2000), --solver-iterations /
-    --ls-iterations (int or 'none' for the XML's 100 / 50; defaults 8 / 16), --shard, --out-dir.
+    --ls-iterations (int or 'none' for the XML's 100 / 50; defaults 8 / 16), --solver-impl (comma
+    list of c, mjx; timed interleaved, one row each), --shard, --out-dir.
     """
     p = argparse.ArgumentParser(prog="swim_jax.bench envs", description=__doc__.split("\n")[0])
     p.add_argument("--envs", default=",".join(DEFAULT_ENVS))
@@ -113,6 +124,9 @@ def main(argv: Optional[Sequence[str]] = None) -> Dict:
     p.add_argument("--native-steps", type=int, default=2000)
     p.add_argument("--solver-iterations", type=_opt_int, default=8)
     p.add_argument("--ls-iterations", type=_opt_int, default=16)
+    p.add_argument("--solver-impl", default="c",
+                   help="comma list of constraint solvers timed interleaved: c (MuJoCo C's Newton "
+                        "method, the default) and/or mjx (MJX's own)")
     p.add_argument("--shard", action="store_true")
     p.add_argument("--out-dir", default=os.path.join("runs", "bench"))
     args = p.parse_args(argv)
@@ -120,12 +134,17 @@ def main(argv: Optional[Sequence[str]] = None) -> Dict:
     for e in env_ids:
         if e not in ENV_IDS:
             p.exit(2, f"swim_jax.bench envs: unknown env id {e!r}; valid ids: {', '.join(ENV_IDS)}\n")
+    impls = [i for i in args.solver_impl.split(",") if i]
+    for i in impls:
+        if i not in IMPLEMENTATIONS:
+            p.exit(2, f"swim_jax.bench envs: unknown solver implementation {i!r}; valid: "
+                      f"{', '.join(IMPLEMENTATIONS)}\n")
     options = dict(solver_iterations=args.solver_iterations, ls_iterations=args.ls_iterations)
     batches = [int(b) for b in args.batches.split(",")]
     rows = []
     for e in env_ids:
         rows += bench_env(e, batches, args.scan_len, args.repeats, args.native_steps, options,
-                          args.shard)
+                          args.shard, tuple(impls))
     stamp = time.strftime("%Y%m%dT%H%M%SZ", time.gmtime())
     result = dict(
         benchmark="envs", timestamp=stamp, options=options, shard=args.shard,

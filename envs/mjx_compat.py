@@ -20,7 +20,13 @@ local frame), stage by stage, and normalises it: ``q_i = normalize(q_0 + a_i h d
 quaternion per substep; the plain-vector scheme (:func:`rungekutta4_c`) agrees with MuJoCo C to
 ~1e-11 in float64.
 
-:func:`install` applies both; it is idempotent and called when ``envs`` is imported.
+3. Constraint solver: MuJoCo C's Newton method and line search (:mod:`envs.mjx_solver`) in place
+of MJX's ``solver.solve``, which takes another path to the same minimum.
+
+4. Dense factorisation of M (``smooth.factor_m`` / ``solve_m``) in plain JAX ops instead of
+jaxlib's LAPACK kernels, which deadlocked when two ran at once (:mod:`envs.small_linalg`).
+
+:func:`install` applies all four; it is idempotent and called when ``envs`` is imported.
 """
 
 from __future__ import annotations
@@ -28,8 +34,10 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 import numpy as np
-from mujoco.mjx._src import collision_driver, collision_primitive, forward, math, scan
+from mujoco.mjx._src import collision_driver, collision_primitive, forward, math, scan, smooth, support
 from mujoco.mjx._src.types import GeomType, JointType
+
+from envs import small_linalg
 
 _MINVAL = 1e-15
 
@@ -104,7 +112,30 @@ def rungekutta4_c(m, d):
                      time=d0.time + h, qacc_warmstart=d.qacc)
 
 
+_MJX_FACTOR_M, _MJX_SOLVE_M = smooth.factor_m, smooth.solve_m
+
+
+def factor_m_plain(m, d):
+    """MJX's ``smooth.factor_m`` for a dense M without LAPACK (:mod:`envs.small_linalg`)."""
+    if support.is_sparse(m):
+        return _MJX_FACTOR_M(m, d)
+    return d.tree_replace({"_impl.qLD": small_linalg.cholesky_upper(d._impl.M)})
+
+
+def solve_m_plain(m, d, x):
+    """MJX's ``smooth.solve_m`` (x = M^-1 x) for a dense M without LAPACK."""
+    if support.is_sparse(m):
+        return _MJX_SOLVE_M(m, d, x)
+    return small_linalg.cho_solve_upper(d._impl.qLD, x)
+
+
 def install() -> None:
-    """Register the C-consistent plane-capsule frame and RK4 step in MJX (idempotent)."""
+    """Register the C-consistent plane-capsule frame, RK4 step and Newton solver, and LAPACK-free
+    factorisation of M, in MJX (idempotent)."""
+    from envs import mjx_solver
+    from mujoco.mjx._src import solver
+
+    solver.solve = mjx_solver.solve
+    smooth.factor_m, smooth.solve_m = factor_m_plain, solve_m_plain
     collision_driver._COLLISION_FUNC[(GeomType.PLANE, GeomType.CAPSULE)] = plane_capsule_c_frame
     forward.rungekutta4 = rungekutta4_c

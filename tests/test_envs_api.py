@@ -32,6 +32,10 @@ def test_solver_options_reach_the_model_and_bad_values_raise_one_line():
         with pytest.raises(ValueError) as e:
             envs.make("Hopper-v5", solver_tolerance=bad)
         assert "\n" not in str(e.value) and "solver_tolerance must be >= 0" in str(e.value)
+    assert envs.make("Hopper-v5").solver_impl == "c" and envs.make("Hopper-v5", solver_impl="mjx").solver_impl == "mjx"
+    with pytest.raises(ValueError) as e:
+        envs.make("Hopper-v5", solver_impl="cg")
+    assert "\n" not in str(e.value) and "solver_impl must be one of c, mjx, got 'cg'" in str(e.value)
 
 
 def test_dtype_option_checked_against_x64():

@@ -5,18 +5,17 @@ of the session keeps float32. The envs are built while x64 is on (the physics dt
 """
 
 import jax
+import numpy as np
 import pytest
 
 from test_envs_equivalence import env_params, teacher_forced_errors
 
 ATOL_F64 = 1e-8
-# Measured (docs/ENVS.md): rewards meet 1e-8; observations do not at every step, because C's and
-# MJX's Newton solvers both stop at MuJoCo's 1e-8 cost tolerance along different paths, leaving
-# joint velocities ~1e-6 apart at stiff contact states (unchanged with the uncapped 100/50
-# solver). Max obs ceilings: about 3x the measured maxima (Hopper 3.6e-8, HalfCheetah 2.5e-6);
-# envs not yet measured in float64 get 1e-5.
-MAX_OBS_F64 = {"Hopper-v5": 1e-7, "Hopper-v4": 1e-7, "HalfCheetah-v5": 1e-5}
-# the default run checks Hopper-v5 (HalfCheetah-v5 and the rest are marked slow)
+# Measured (docs/ENVS.md) with MuJoCo C's Newton solver (envs/mjx_solver.py): obs <= 6.3e-13 and
+# rewards <= 4.5e-14 for every env but Ant (with MJX's own solver: up to 2.5e-6, HalfCheetah).
+ANT = ("Ant's multi-contact steps still differ from MuJoCo C in float64 (state 7.7e-5, cfrc_ext "
+       "1.0e-3 at a few steps; p99 3e-5); cause not found yet, see docs/ENVS.md")
+# The default run checks Hopper-v5 (terminations) and HalfCheetah-v5 (most contact events).
 ALL = ("Hopper-v5", "Walker2d-v5", "HalfCheetah-v5", "Swimmer-v5", "Ant-v5", "Hopper-v4",
        "Walker2d-v4")
 
@@ -29,7 +28,8 @@ def x64():
     jax.config.update("jax_enable_x64", prev)
 
 
-@pytest.mark.parametrize("env_id", env_params(ALL, fast=("Hopper-v5",)))
+@pytest.mark.parametrize("env_id", env_params(ALL, fast=("Hopper-v5", "HalfCheetah-v5"),
+                                                  xfail={"Ant-v5": ANT}))
 def test_teacher_forced_float64(env_id, x64, record_property):
     err = teacher_forced_errors(env_id)
     record_property("errors", err)
@@ -37,7 +37,7 @@ def test_teacher_forced_float64(env_id, x64, record_property):
     assert err["dtype"] == "float64"
     assert err["term_mismatch"] == 0, err
     assert err["reward"] <= ATOL_F64, err
-    assert err["obs"] <= MAX_OBS_F64.get(env_id, 1e-5), err
+    assert err["obs"] <= ATOL_F64, err
 
 
 def test_rk4_step_matches_mujoco_c_for_a_free_joint(x64):
@@ -63,3 +63,18 @@ def test_rk4_step_matches_mujoco_c_for_a_free_joint(x64):
     mujoco.mj_step(m, d)
     assert np.abs(np.asarray(dx.qpos) - d.qpos).max() <= 1e-9
     assert np.abs(np.asarray(dx.qvel) - d.qvel).max() <= 1e-9
+
+
+def test_c_solver_path_is_what_closes_the_float64_gap(x64):
+    """The float64 bound is met because of envs/mjx_solver.py: on the first 100 steps of the
+    HalfCheetah sine recording, MJX's own solver (``solver_impl="mjx"``, same tolerance 1e-8)
+    misses Gymnasium by > 1e-7 (2.5e-6 measured, step 43), MuJoCo C's path (default) by <= 1e-8."""
+    import envs
+    from envs import gym_reference as gr
+
+    rec = gr.record("HalfCheetah-v5", 100, "sine", seed=7)
+    err = {}
+    for impl in ("c", "mjx"):
+        st = gr.run_teacher_forced(envs.make("HalfCheetah-v5", solver_impl=impl), rec)
+        err[impl] = float(np.abs(np.asarray(st.obs) - rec["obs"]).max())
+    assert err["c"] <= ATOL_F64 and err["mjx"] > 1e-7, err
