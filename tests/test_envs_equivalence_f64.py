@@ -14,7 +14,7 @@ ATOL_F64 = 1e-8
 # Measured (docs/ENVS.md) with MuJoCo C's Newton solver (envs/mjx_solver.py): obs <= 6.3e-13 and
 # rewards <= 4.5e-14 for every env but Ant (with MJX's own solver: up to 2.5e-6, HalfCheetah).
 ANT = ("Ant's multi-contact steps still differ from MuJoCo C in float64 (state 7.7e-5, cfrc_ext "
-       "1.0e-3 at a few steps; p99 3e-5); cause not found yet, see docs/ENVS.md")
+       "1.0e-3 at a few steps; p99 3e-5); lead: RK4 quaternion stages, see docs/ENVS.md")
 # The default run checks Hopper-v5 (terminations) and HalfCheetah-v5 (most contact events).
 ALL = ("Hopper-v5", "Walker2d-v5", "HalfCheetah-v5", "Swimmer-v5", "Ant-v5", "Hopper-v4",
        "Walker2d-v4")
