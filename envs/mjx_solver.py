@@ -19,7 +19,8 @@ path, so where both stop at ``opt.tolerance`` their answers differ by about the 
 :func:`solve` reproduces C's branch decisions exactly (rounding aside: sums are reduced in a
 different order), for what Gymnasium's locomotion XMLs use: the Newton solver, the pyramidal
 cone, no friction loss. Anything else is passed to MJX's own solver. Under ``vmap`` the loops
-run until the slowest element is done, like MJX's. Installed by :mod:`envs.mjx_compat`.
+run until the slowest element is done (MJX's line search always runs all its iterations).
+Installed by :mod:`envs.mjx_compat`.
 
 Scale: ``1 / trace(M)`` as in MuJoCo 3.17+ (and MJX's ``_trace_m``). Islands: C solves each
 constraint island separately; a single kinematic tree with constraints forms one island with all
