@@ -121,10 +121,7 @@ class LocomotionEnv(brax_base.Env):
                 "the physics dtype follows jax_enable_x64 (set it before envs.make)")
         if max_episode_steps is not None and int(max_episode_steps) < 1:
             raise ValueError(f"max_episode_steps must be >= 1 or None, got {max_episode_steps}")
-        if solver_impl not in mjx_solver.IMPLEMENTATIONS:
-            raise ValueError(f"solver_impl must be one of {', '.join(mjx_solver.IMPLEMENTATIONS)}, "
-                             f"got {solver_impl!r}")
-        self.solver_impl = solver_impl
+        self.solver_impl = mjx_solver.check_implementation(solver_impl)
         self.dtype = dt_now
         self.max_episode_steps = None if max_episode_steps is None else int(max_episode_steps)
         self.mj_model = load_mj_model(self.xml_file, solver_iterations, ls_iterations, solver_tolerance)

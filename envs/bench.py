@@ -25,25 +25,28 @@ import jax.numpy as jnp
 import mujoco
 import numpy as np
 
-from envs.mjx_solver import IMPLEMENTATIONS
+from envs.mjx_solver import check_implementation
 from envs.registry import ENV_IDS, make
 
 DEFAULT_ENVS = ("Hopper-v5", "Walker2d-v5", "HalfCheetah-v5", "Swimmer-v5", "Ant-v5")
 
 
-def native_steps_per_second(env, n_steps: int, seed: int = 0) -> float:
-    """Env steps/s of native MuJoCo C on the calling thread for ``env``'s XML and frame skip."""
+def native_rollout(env, n_steps: int, seed: int = 0):
+    """Zero-argument callable running ``n_steps`` env steps of native MuJoCo C on the calling
+    thread (``env``'s XML and frame skip, fixed uniform random actions), from qpos0 each call."""
     m = env.mj_model
     d = mujoco.MjData(m)
-    rng = np.random.default_rng(seed)
-    actions = rng.uniform(-1.0, 1.0, size=(n_steps, m.nu))
-    mujoco.mj_forward(m, d)
-    t0 = time.perf_counter()
-    for a in actions:
-        d.ctrl[:] = a
-        mujoco.mj_step(m, d, nstep=env.frame_skip)
-        mujoco.mj_rnePostConstraint(m, d)
-    return n_steps / (time.perf_counter() - t0)
+    actions = np.random.default_rng(seed).uniform(-1.0, 1.0, size=(n_steps, m.nu))
+
+    def run():
+        mujoco.mj_resetData(m, d)
+        mujoco.mj_forward(m, d)
+        for a in actions:
+            d.ctrl[:] = a
+            mujoco.mj_step(m, d, nstep=env.frame_skip)
+            mujoco.mj_rnePostConstraint(m, d)
+
+    return run
 
 
 def make_rollout(env, batch: int, scan_len: int, shard: bool):
@@ -70,35 +73,34 @@ def make_rollout(env, batch: int, scan_len: int, shard: bool):
 def bench_env(env_id: str, batches: Sequence[int], scan_len: int, repeats: int,
               native_steps: int, options: Dict, shard: bool,
               solver_impls: Sequence[str] = ("c",)) -> List[Dict]:
-    """Measure one env at every batch size, one row per solver implementation; for each batch the
-    implementations are compiled first, then every repeat times native MuJoCo and each of them."""
+    """Measure one env at every batch size, one row per solver implementation: each is compiled
+    first, then native MuJoCo and every implementation are timed interleaved
+    (:func:`swim_jax.timing.time_interleaved`, rotating order, medians)."""
+    from swim_jax.timing import time_interleaved
+
     env_by_impl = {impl: make(env_id, **options, solver_impl=impl) for impl in solver_impls}
+    native_env = env_by_impl[solver_impls[0]]
     rows = []
     for batch in batches:
-        compiled, compile_s, rates = {}, {}, {impl: [] for impl in solver_impls}
+        candidates, compile_s = {"native": native_rollout(native_env, native_steps)}, {}
         for impl, env in env_by_impl.items():
             f, states, key = make_rollout(env, batch, scan_len, shard)
             t0 = time.perf_counter()
-            compiled[impl] = (f.lower(states, key).compile(), states)
+            compiled = f.lower(states, key).compile()
             compile_s[impl] = time.perf_counter() - t0
-            jax.block_until_ready(compiled[impl][0](states, key))  # warm-up
-        native_rates = []
-        for r in range(repeats):
-            native_rates.append(native_steps_per_second(env_by_impl[solver_impls[0]], native_steps, seed=r))
-            for impl in solver_impls[r % len(solver_impls):] + solver_impls[:r % len(solver_impls)]:
-                fn, states = compiled[impl]
-                t0 = time.perf_counter()
-                jax.block_until_ready(fn(states, jax.random.PRNGKey(r + 2)))
-                rates[impl].append(batch * scan_len / (time.perf_counter() - t0))
-        nat_med = statistics.median(native_rates)
+            candidates[impl] = lambda fn=compiled, st=states, k=key: fn(st, k)
+        timings = time_interleaved(candidates, repeats=repeats, warmup=1)
+        native_all = [native_steps / t for t in timings["native"].samples]
+        nat_med = statistics.median(native_all)
         for impl in solver_impls:
-            mjx_med = statistics.median(rates[impl])
+            mjx_all = [batch * scan_len / t for t in timings[impl].samples]
+            mjx_med = statistics.median(mjx_all)
             row = dict(env=env_id, batch=batch, scan_len=scan_len, solver_impl=impl,
                        compile_s=round(compile_s[impl], 2),
                        mjx_steps_per_s=round(mjx_med, 1), native_steps_per_s=round(nat_med, 1),
                        ratio_vs_one_native_core=round(mjx_med / nat_med, 4),
-                       mjx_all=[round(x, 1) for x in rates[impl]],
-                       native_all=[round(x, 1) for x in native_rates])
+                       mjx_all=[round(x, 1) for x in mjx_all],
+                       native_all=[round(x, 1) for x in native_all])
             print(json.dumps(row), flush=True)
             rows.append(row)
     return rows
@@ -135,10 +137,11 @@ def main(argv: Optional[Sequence[str]] = None) -> Dict:
         if e not in ENV_IDS:
             p.exit(2, f"swim_jax.bench envs: unknown env id {e!r}; valid ids: {', '.join(ENV_IDS)}\n")
     impls = [i for i in args.solver_impl.split(",") if i]
-    for i in impls:
-        if i not in IMPLEMENTATIONS:
-            p.exit(2, f"swim_jax.bench envs: unknown solver implementation {i!r}; valid: "
-                      f"{', '.join(IMPLEMENTATIONS)}\n")
+    try:
+        for i in impls:
+            check_implementation(i)
+    except ValueError as exc:
+        p.exit(2, f"swim_jax.bench envs: {exc}\n")
     options = dict(solver_iterations=args.solver_iterations, ls_iterations=args.ls_iterations)
     batches = [int(b) for b in args.batches.split(",")]
     rows = []

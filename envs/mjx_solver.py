@@ -47,12 +47,18 @@ IMPLEMENTATIONS = ("c", "mjx")
 _active = ["c"]
 
 
+def check_implementation(name: str) -> str:
+    """``name`` if it is one of :data:`IMPLEMENTATIONS`, else ValueError in one line naming them."""
+    if name not in IMPLEMENTATIONS:
+        raise ValueError(f"solver_impl must be one of {', '.join(IMPLEMENTATIONS)}, got {name!r}")
+    return name
+
+
 @contextlib.contextmanager
 def implementation(name: str):
     """Within the block, traced MJX steps solve constraints with ``name``: "c" (:func:`solve`, the
     default) or "mjx" (MJX's own solver). Read at trace time, so wrap the code being jitted."""
-    if name not in IMPLEMENTATIONS:
-        raise ValueError(f"unknown solver implementation {name!r}; valid: {', '.join(IMPLEMENTATIONS)}")
+    check_implementation(name)
     previous, _active[0] = _active[0], name
     try:
         yield

@@ -88,13 +88,25 @@ def test_env_benchmark_rejects_an_unknown_env_with_exit_2(tmp_path):
     assert not (tmp_path / "o").exists()
 
 
+def test_env_benchmark_rejects_an_unknown_solver_with_exit_2(tmp_path, capsys):
+    from envs.bench import main as bench_envs_main
+
+    with pytest.raises(SystemExit) as e:
+        bench_envs_main(["--envs", "Hopper-v5", "--solver-impl", "c,cg", "--out-dir", str(tmp_path / "o")])
+    assert e.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "solver_impl must be one of c, mjx, got 'cg'" in err
+    assert not (tmp_path / "o").exists()
+
+
 @pytest.mark.slow
 def test_env_benchmark_runs_through_the_bench_cli(tmp_path):
     args = ["envs", "--envs", "Hopper-v5", "--batches", "2", "--scan-len", "2", "--repeats", "1"]
-    assert bench.main([*args, "--native-steps", "20", "--out-dir", str(tmp_path)]) == 0
+    assert bench.main([*args, "--native-steps", "20", "--solver-impl", "c,mjx", "--out-dir", str(tmp_path)]) == 0
     (path,) = tmp_path.glob("envs-*.json")
     rows = json.loads(path.read_text())["rows"]
-    assert rows and all(r["env"] == "Hopper-v5" for r in rows)
+    assert [(r["env"], r["solver_impl"]) for r in rows] == [("Hopper-v5", "c"), ("Hopper-v5", "mjx")]
+    assert all(len(r["mjx_all"]) == len(r["native_all"]) == 1 and r["mjx_steps_per_s"] > 0 for r in rows)
 
 
 @pytest.mark.parametrize("args,needle", [(["--lanes", "0,2"], "positive integers"), (["--lanes", "x"], "positive integers"),
