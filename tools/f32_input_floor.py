@@ -1,0 +1,32 @@
+"""How close can any float32 env get to Gymnasium? Teacher-force our env in float64 from the
+recorded inputs rounded to float32 (state, warm start, action: what a float32 env is given) and
+report the observation error against Gymnasium's float64 outputs (docs/ENVS.md, issue 3).
+
+Usage: python tools/f32_input_floor.py [ENV_ID]   (default HalfCheetah-v5; 1000 random + 1000 sine steps, seed 7)
+"""
+
+import sys
+
+import jax
+
+jax.config.update("jax_enable_x64", True)
+
+import numpy as np  # noqa: E402
+
+import envs  # noqa: E402
+from envs import gym_reference as gr  # noqa: E402
+
+
+def main(env_id: str = "HalfCheetah-v5") -> None:
+    env = envs.make(env_id)
+    recs = [gr.record(env_id, 1000, pol, seed=7) for pol in ("random", "sine")]
+    rec = {k: np.concatenate([r[k] for r in recs]) for k in recs[0]}
+    for k in ("qpos", "qvel", "qacc_warmstart", "xpos", "action"):
+        rec[k] = rec[k].astype(np.float32).astype(np.float64)
+    err = np.abs(np.asarray(gr.run_teacher_forced(env, rec).obs) - rec["obs"])
+    print(f"{env_id}: float64 physics from float32-rounded inputs: obs max {err.max():.3g}, "
+          f"p99 {np.percentile(err.max(axis=1), 99):.3g}")
+
+
+if __name__ == "__main__":
+    main(*sys.argv[1:])
