@@ -11,14 +11,13 @@ unaffected (a 90-degree rotation maps the pyramid onto itself).
 :func:`install` replaces the (PLANE, CAPSULE) entry of MJX's collision table with the C-consistent
 frame. It changes only the tangent frame.
 
-2. RK4 for quaternions (Ant-v5 is the only env with ``integrator="RK4"``). MJX 3.17 forms each
-stage's position on the manifold, ``q_i = q_0 * exp(a_i h w_{i-1})``, and the final one with the
-averaged angular velocity. MuJoCo 4.0 C, measured against ``mj_step`` with constraints disabled,
-integrates a quaternion as a plain vector with derivative ``dq/dt = q * (0, w) / 2`` (w in the
-local frame), stage by stage, and normalises it: ``q_i = normalize(q_0 + a_i h dq_{i-1})``,
-``q_1 = normalize(q_0 + h sum_i b_i dq_i)``. On a random Ant state the two differ by ~1e-6 in the
-quaternion per substep; the plain-vector scheme (:func:`rungekutta4_c`) agrees with MuJoCo C to
-~1e-11 in float64.
+2. RK4 for quaternions (Ant-v5 is the only env with ``integrator="RK4"`` and a free joint).
+MJX 3.17 forms each stage's quaternion as ``q_0 * exp(a_i h w_{i-1})`` and the final one from the
+averaged angular velocity. MuJoCo 4.0 C runs Runge-Kutta-Munthe-Kaas: the same stages, but each
+stage's angular velocity w_i enters as the rate of the rotation vector theta_i of its stage,
+``dexp^-1_{theta_i}(w_i)`` (:func:`dexp_inv`). Found by recording ``mj_step``'s stage states
+through ``mjcb_control``; a NumPy replica of this scheme equals ``mj_step`` bit for bit (with and
+without contacts). :func:`rungekutta4_c` implements it; MJX's scheme is ~1e-6 off per substep.
 
 3. Constraint solver: MuJoCo C's Newton method and line search (:mod:`envs.mjx_solver`) in place
 of MJX's ``solver.solve``, which takes another path to the same minimum.
@@ -62,57 +61,74 @@ def plane_capsule_c_frame(plane, cap):
 _RK4_A = tuple(float(a) for a in np.diag(forward._RK4_A))
 _RK4_B = tuple(float(b) for b in forward._RK4_B)
 
-
-def _joint_wise(rot, lin):
-    """A ``scan.flat`` body mapping (jnt_types, qpos, qvel) to a qpos-sized vector joint by joint:
-    ``rot(q, w)`` for a ball/free quaternion and its angular velocity, ``lin(p, v)`` for every
-    other coordinate (free-joint position, hinge, slide) and its velocity."""
-    def body(jnt_types, qpos, qvel):
-        out, qi, vi = [], 0, 0
-        for jnt_type in jnt_types:
-            if jnt_type == JointType.FREE:
-                out += [lin(qpos[qi:qi + 3], qvel[vi:vi + 3]), rot(qpos[qi + 3:qi + 7], qvel[vi + 3:vi + 6])]
-                qi, vi = qi + 7, vi + 6
-            elif jnt_type == JointType.BALL:
-                out.append(rot(qpos[qi:qi + 4], qvel[vi:vi + 3]))
-                qi, vi = qi + 4, vi + 3
-            else:
-                out.append(lin(qpos[qi:qi + 1], qvel[vi:vi + 1]))
-                qi, vi = qi + 1, vi + 1
-        return jnp.concatenate(out) if out else jnp.empty((0,))
-    return body
+# |theta| below which dexp_inv's coefficient c(|theta|) is taken from its series (cancellation)
+_SERIES_BELOW = 1e-2
 
 
-# dqpos/dt: qvel for linear coordinates, q * (0, w) / 2 (w local) for quaternions
-_qpos_rate = _joint_wise(rot=lambda q, w: 0.5 * math.quat_mul_axis(q, w), lin=lambda p, v: v)
-# qpos with every quaternion scaled to unit norm
-_normalize_quats = _joint_wise(rot=lambda q, w: math.normalize(q), lin=lambda p, v: p)
+def dexp_inv(theta, w):
+    """Rate of the rotation vector ``theta`` of ``q0 * exp(theta)`` for body angular velocity w:
+
+    ``dexp^-1_theta(w) = w + theta x w / 2 + c(t) theta x (theta x w)``, ``t = |theta|``,
+    ``c(t) = (1 - (t/2) cot(t/2)) / t^2`` (series ``1/12 + t^2/720 + t^4/30240`` for t < 1e-2).
+    """
+    t2 = jnp.dot(theta, theta)
+    t = jnp.sqrt(t2)
+    closed_form = t >= _SERIES_BELOW
+    t_safe = jnp.where(closed_form, t, 1.0)
+    closed = (1.0 - 0.5 * t_safe / jnp.tan(0.5 * t_safe)) / (t_safe * t_safe)
+    series = 1.0 / 12.0 + t2 / 720.0 + t2 * t2 / 30240.0
+    cross = jnp.cross(theta, w)
+    return w + 0.5 * cross + jnp.where(closed_form, closed, series) * jnp.cross(theta, cross)
+
+
+def _tangent_rate(jnt_types, theta, qvel):
+    """``scan.flat`` body: d(theta)/dt dof by dof, ``dexp_inv(theta, w)`` for a ball/free
+    joint's rotation, qvel itself for every other dof (free-joint position, hinge, slide)."""
+    out, vi = [], 0
+    for jnt_type in jnt_types:
+        if jnt_type == JointType.FREE:
+            out += [qvel[vi:vi + 3], dexp_inv(theta[vi + 3:vi + 6], qvel[vi + 3:vi + 6])]
+            vi += 6
+        elif jnt_type == JointType.BALL:
+            out.append(dexp_inv(theta[vi:vi + 3], qvel[vi:vi + 3]))
+            vi += 3
+        else:
+            out.append(qvel[vi:vi + 1])
+            vi += 1
+    return jnp.concatenate(out) if out else jnp.empty((0,))
 
 
 def rungekutta4_c(m, d):
-    """Classic RK4 step as MuJoCo 4.0 C takes it (module docstring, point 2).
+    """Classic RK4 step as MuJoCo 4.0 C takes it: Runge-Kutta-Munthe-Kaas on each quaternion.
 
-    With h the timestep, x = (qpos, qvel, act) and f(x) = (dqpos/dt, qacc, act_dot) from
-    ``forward``: x_i = x_0 + a_i h f(x_{i-1}) (quaternions normalised), x_1 = x_0 + h sum_i b_i
-    f(x_i); activations are clamped as in MJX's own integrators.
+    Positions are carried as a tangent vector theta from ``qpos_0`` (``qpos(theta) = qpos_0 +
+    theta`` for linear coordinates, ``q_0 * exp(theta)`` for quaternions). With h the timestep and
+    k_i = (dexp_inv(theta_i, qvel_i), qacc_i, act_dot_i) from ``forward`` at stage i:
+    theta_i = a_i h k_{i-1}[0], qvel_i = qvel_0 + a_i h qacc_{i-1}; the step ends at
+    theta = h sum_i b_i k_i[0], qvel_0 + h sum_i b_i qacc_i. The warm start (and ``qacc``) is the
+    last stage's qacc. Activations are clamped as in MJX's own integrators. (module docstring,
+    point 2)
     """
     h = m.opt.timestep
-    rate = lambda qpos, qvel: scan.flat(m, _qpos_rate, "jqv", "q", m.jnt_type, qpos, qvel)
-    unit = lambda qpos: scan.flat(m, _normalize_quats, "jqv", "q", m.jnt_type, qpos, d0.qvel)
     d0 = d
-    k = (rate(d0.qpos, d0.qvel), d0.qacc, d0.act_dot)
+    rate = lambda theta, qvel: scan.flat(m, _tangent_rate, "jvv", "v", m.jnt_type, theta, qvel)
+    integrate = lambda *args: forward._integrate_pos(*args, dt=1.0)
+    position = lambda theta: scan.flat(m, integrate, "jqv", "q", m.jnt_type, d0.qpos, theta)
+    k = (d0.qvel, d0.qacc, d0.act_dot)  # theta_0 = 0: dexp_inv(0, w) = w
     total = jax.tree_util.tree_map(lambda x: _RK4_B[0] * x, k)
     for a, b in zip(_RK4_A, _RK4_B[1:]):
-        d = forward.forward(m, d.replace(qpos=unit(d0.qpos + a * h * k[0]), qvel=d0.qvel + a * h * k[1],
+        theta = a * h * k[0]
+        d = forward.forward(m, d.replace(qpos=position(theta), qvel=d0.qvel + a * h * k[1],
                                          act=d0.act + a * h * k[2], time=d0.time + a * h))
-        k = (rate(d.qpos, d.qvel), d.qacc, d.act_dot)
+        k = (rate(theta, d.qvel), d.qacc, d.act_dot)
         total = jax.tree_util.tree_map(lambda s, x: s + b * x, total, k)
     act = forward._next_activation(m, d0, total[2])
-    return d.replace(qpos=unit(d0.qpos + h * total[0]), qvel=d0.qvel + h * total[1], act=act,
+    return d.replace(qpos=position(h * total[0]), qvel=d0.qvel + h * total[1], act=act,
                      time=d0.time + h, qacc_warmstart=d.qacc)
 
 
 _MJX_FACTOR_M, _MJX_SOLVE_M = smooth.factor_m, smooth.solve_m
+_MJX_RUNGEKUTTA4 = forward.rungekutta4  # MJX's own scheme, kept for comparison (tests)
 
 
 def factor_m_plain(m, d):
