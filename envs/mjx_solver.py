@@ -210,13 +210,12 @@ def solve(m, d):
         return MJX_SOLVE(m, d)
     tol = m.opt.tolerance
     Context = mjx_solver.Context
-    qacc = d.qacc_smooth
+    ctx = Context.create(m, d.replace(qacc=d.qacc_smooth), grad=False)
     if not m.opt.disableflags & DisableBit.WARMSTART:
         warm = Context.create(m, d.replace(qacc=d.qacc_warmstart), grad=False)
-        smth = Context.create(m, d.replace(qacc=d.qacc_smooth), grad=False)
-        qacc = jnp.where(warm.cost > smth.cost, d.qacc_smooth, d.qacc_warmstart)  # tie: warm start
-    d = d.replace(qacc=qacc)
-    ctx = _update_gradient(m, d, Context.create(m, d, grad=False))
+        ctx = _select(warm.cost > ctx.cost, ctx, warm)  # tie: warm start
+    d = d.replace(qacc=ctx.qacc)
+    ctx = _update_gradient(m, d, ctx)
     ctx = ctx.replace(search=-ctx.Mgrad)
     scale = 1.0 / mjx_solver._trace_m(m, d)
 
