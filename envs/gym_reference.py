@@ -46,7 +46,11 @@ def record(env_id: str, n_steps: int, policy: str = "random", seed: int = 0,
 
     pol = {"random": random_policy, "sine": sine_policy}[policy]
     genv = gym.make(env_id).unwrapped
+    valid = sorted(n for n in dir(genv.model.opt) if not n.startswith("_"))
     for name, value in (solver_opt or {}).items():
+        if name not in valid:
+            genv.close()
+            raise ValueError(f"solver_opt: unknown MjOption field {name!r}; valid: {', '.join(valid)}")
         setattr(genv.model.opt, name, value)
     rng = np.random.default_rng(seed)
     genv.reset(seed=seed)

@@ -57,6 +57,19 @@ def teacher_forced_errors(env_id, **options):
     }
 
 
+def test_record_applies_solver_options():
+    """gym_reference.record(solver_opt=...) changes Gymnasium's model.opt before the first reset:
+    one Newton iteration moves HalfCheetah's recorded states off the shipped solver's, an empty
+    override reproduces them exactly, and an unknown field is refused naming the valid ones."""
+    shipped = gr.record("HalfCheetah-v5", 60, "sine", seed=3)
+    assert np.array_equal(gr.record("HalfCheetah-v5", 60, "sine", seed=3, solver_opt={})["qpos"],
+                          shipped["qpos"])
+    capped = gr.record("HalfCheetah-v5", 60, "sine", seed=3, solver_opt={"iterations": 1})
+    assert np.abs(capped["qpos"] - shipped["qpos"]).max() > 1e-6
+    with pytest.raises(ValueError, match="unknown MjOption field 'iteration'; valid: .*iterations"):
+        gr.record("HalfCheetah-v5", 1, solver_opt={"iteration": 1})
+
+
 @pytest.mark.parametrize("env_id", env_params(envs.ENV_IDS))
 def test_teacher_forced_float32(env_id, record_property):
     err = teacher_forced_errors(env_id)
