@@ -136,10 +136,8 @@ def main(argv: Optional[Sequence[str]] = None) -> Dict:
     for e in env_ids:
         if e not in ENV_IDS:
             p.exit(2, f"swim_jax.bench envs: unknown env id {e!r}; valid ids: {', '.join(ENV_IDS)}\n")
-    impls = [i for i in args.solver_impl.split(",") if i]
     try:
-        for i in impls:
-            check_implementation(i)
+        impls = [check_implementation(i) for i in args.solver_impl.split(",") if i]
     except ValueError as exc:
         p.exit(2, f"swim_jax.bench envs: {exc}\n")
     options = dict(solver_iterations=args.solver_iterations, ls_iterations=args.ls_iterations)

@@ -83,6 +83,13 @@ def record(env_id: str, n_steps: int, policy: str = "random", seed: int = 0,
     return {k: np.asarray(v) for k, v in out.items()}
 
 
+def record_random_and_sine(env_id: str, n_steps: int, seed: int) -> Dict[str, np.ndarray]:
+    """The equivalence tests' reference: ``n_steps`` of :func:`record` under the random policy,
+    then ``n_steps`` under the sine controller (same seed), concatenated along the step axis."""
+    recs = [record(env_id, n_steps, pol, seed=seed) for pol in ("random", "sine")]
+    return {k: np.concatenate([r[k] for r in recs]) for k in recs[0]}
+
+
 def teacher_forced_step(env: LocomotionEnv) -> Callable[..., State]:
     """Jitted ``f(qpos, qvel, qacc_warmstart, xpos, action) -> State`` batched over axis 0.
 

@@ -40,8 +40,7 @@ def env_params(ids, fast=FAST):
 def teacher_forced_errors(env_id, **options):
     """Max abs obs / reward errors and terminated mismatches over both recorded trajectories."""
     env = envs.make(env_id, **options)
-    recs = [gr.record(env_id, N_STEPS, pol, seed=7) for pol in ("random", "sine")]
-    rec = {k: np.concatenate([r[k] for r in recs]) for k in recs[0]}
+    rec = gr.record_random_and_sine(env_id, N_STEPS, seed=7)
     st = gr.run_teacher_forced(env, rec)
     obs = np.asarray(st.obs, np.float64)
     scale = np.maximum(1.0, np.abs(rec["obs"]))

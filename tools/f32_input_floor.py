@@ -19,8 +19,7 @@ from envs import gym_reference as gr  # noqa: E402
 
 def main(env_id: str = "HalfCheetah-v5") -> None:
     env = envs.make(env_id)
-    recs = [gr.record(env_id, 1000, pol, seed=7) for pol in ("random", "sine")]
-    rec = {k: np.concatenate([r[k] for r in recs]) for k in recs[0]}
+    rec = gr.record_random_and_sine(env_id, 1000, seed=7)
     for k in ("qpos", "qvel", "qacc_warmstart", "xpos", "action"):
         rec[k] = rec[k].astype(np.float32).astype(np.float64)
     err = np.abs(np.asarray(gr.run_teacher_forced(env, rec).obs) - rec["obs"])
