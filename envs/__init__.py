@@ -4,7 +4,12 @@ Public contract: ``make(env_id, **options)``, ``ENV_IDS``, ``step_autoreset(env,
 reset_key) -> (next_state, final_obs)``. See docs/ENVS.md.
 """
 
-from envs import mjx_compat
+from envs import deps
+
+deps.import_mjx_quietly()  # before anything else imports mujoco.mjx (or brax, which does)
+deps.check_versions()
+
+from envs import mjx_compat  # noqa: E402
 from envs.autoreset import step_autoreset
 from envs.base import LocomotionEnv, State
 from envs.registry import ENV_IDS, make
