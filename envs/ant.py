@@ -5,7 +5,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 
 from envs.base import LocomotionEnv
-from envs.terms import in_closed_range, qpos_qvel_obs
+from envs.terms import in_closed_range, qpos_qvel_obs, sum_of_squares
 
 CONTACT_FORCE_RANGE = (-1.0, 1.0)
 CONTACT_COST_WEIGHT = 5e-4
@@ -49,7 +49,7 @@ class AntV5(LocomotionEnv):
 
     def extra_cost(self, data):
         """Contact cost 5e-4 * sum(clip(cfrc_ext, -1, 1)^2) over all bodies."""
-        cost = CONTACT_COST_WEIGHT * jnp.sum(jnp.square(self._contact_forces(data)))
+        cost = CONTACT_COST_WEIGHT * sum_of_squares(self._contact_forces(data))
         return cost, {"reward_contact": -cost}
 
     def x_position(self, data):

@@ -26,6 +26,8 @@ from brax.envs import base as brax_base
 from mujoco import mjx
 
 from envs import mjx_solver
+from envs.native import NativePhysics
+from envs.terms import rounded, sum_of_squares, true_divide
 
 State = brax_base.State
 
@@ -37,7 +39,10 @@ DEFAULT_LS_ITERATIONS = 16
 DEFAULT_MAX_EPISODE_STEPS = 1000
 
 OPTION_NAMES = ("max_episode_steps", "solver_iterations", "ls_iterations", "solver_tolerance",
-                "solver_impl", "dtype")
+                "solver_impl", "dtype", "backend")
+# physics backends: "mjx" (JAX, batched on any device; the default) or "mujoco" (MuJoCo C on the
+# host through one callback per step, envs/native.py; fastest on a CPU at few lanes)
+BACKENDS = ("mjx", "mujoco")
 
 
 def gymnasium_asset_path(xml_file: str) -> str:
@@ -113,7 +118,8 @@ class LocomotionEnv(brax_base.Env):
                  ls_iterations: Optional[int] = DEFAULT_LS_ITERATIONS,
                  solver_tolerance: Optional[float] = None,
                  solver_impl: str = "c",
-                 dtype: Any = None):
+                 dtype: Any = None,
+                 backend: str = "mjx"):
         dt_now = float_dtype()
         if dtype is not None and jnp.dtype(dtype) != dt_now:
             raise ValueError(
@@ -121,6 +127,9 @@ class LocomotionEnv(brax_base.Env):
                 "the physics dtype follows jax_enable_x64 (set it before envs.make)")
         if max_episode_steps is not None and int(max_episode_steps) < 1:
             raise ValueError(f"max_episode_steps must be >= 1 or None, got {max_episode_steps}")
+        if backend not in BACKENDS:
+            raise ValueError(f"unknown backend {backend!r}; valid backends: {', '.join(BACKENDS)}")
+        self.physics_backend = backend
         self.solver_impl = mjx_solver.check_implementation(solver_impl)
         self.dtype = dt_now
         self.max_episode_steps = None if max_episode_steps is None else int(max_episode_steps)
@@ -128,7 +137,12 @@ class LocomotionEnv(brax_base.Env):
         self.solver_iterations = int(self.mj_model.opt.iterations)
         self.ls_iterations = int(self.mj_model.opt.ls_iterations)
         self.sys = mjx.put_model(self.mj_model)
-        self._data0 = mjx.make_data(self.sys)
+        self._native = None
+        if backend == "mujoco":
+            self._native = NativePhysics(self.mj_model, self.frame_skip, self.needs_post_constraint, dt_now)
+            self._data0 = self._native.initial_data()
+        else:
+            self._data0 = mjx.make_data(self.sys)
         self.dt = float(self.mj_model.opt.timestep) * self.frame_skip
         self.init_qpos = jnp.asarray(np.array(self.mj_model.qpos0), dtype=dt_now)
         self.init_qvel = jnp.zeros((self.mj_model.nv,), dtype=dt_now)
@@ -156,13 +170,18 @@ class LocomotionEnv(brax_base.Env):
 
     # ------------------------------------------------------------------ physics
     def physics_reset(self, qpos: jax.Array, qvel: jax.Array) -> mjx.Data:
-        """MJX data at ``(qpos, qvel)`` after ``mj_forward``, like Gymnasium's ``set_state``."""
+        """Physics at ``(qpos, qvel)`` after ``mj_forward``, like Gymnasium's ``set_state``
+        (MJX data, or :class:`envs.native.NativeData` with ``backend="mujoco"``)."""
+        if self._native is not None:
+            return self._native.reset(qpos, qvel)
         data = self._data0.replace(qpos=qpos.astype(self.dtype), qvel=qvel.astype(self.dtype))
         with mjx_solver.implementation(self.solver_impl):
             return mjx.forward(self.sys, data)
 
     def physics_step(self, data: mjx.Data, action: jax.Array) -> mjx.Data:
-        """``frame_skip`` MJX steps with ``ctrl = action`` (then cfrc_ext if the task needs it)."""
+        """``frame_skip`` physics steps with ``ctrl = action`` (then cfrc_ext if the task needs it)."""
+        if self._native is not None:
+            return self._native.step(data, action)
         data = data.replace(ctrl=action.astype(self.dtype))
         with mjx_solver.implementation(self.solver_impl):
             data = jax.lax.fori_loop(0, self.frame_skip, lambda _, d: mjx.step(self.sys, d), data)
@@ -203,9 +222,9 @@ class LocomotionEnv(brax_base.Env):
         data0 = state.pipeline_state
         x_before = self.x_position(data0)
         data = self.physics_step(data0, action)
-        x_velocity = (self.x_position(data) - x_before) / self.dt
+        x_velocity = true_divide(self.x_position(data) - x_before, self.dt)
         forward_reward = self.forward_reward_weight * x_velocity
-        ctrl_cost = self.ctrl_cost_weight * jnp.sum(jnp.square(action))
+        ctrl_cost = self.ctrl_cost_weight * sum_of_squares(action)
         extra, extra_metrics = self.extra_cost(data)
         healthy = self.is_healthy(data)
         if healthy is None:
@@ -215,7 +234,10 @@ class LocomotionEnv(brax_base.Env):
             terminated = 1.0 - healthy.astype(self.dtype)
             paid = 1.0 if self.healthy_reward_on_terminal_step else healthy.astype(self.dtype)
             survive = jnp.asarray(self.healthy_reward * paid, self.dtype)
-        reward = forward_reward + survive - ctrl_cost - extra
+        # Gymnasium's order, (forward + healthy) - (ctrl + contact), each product rounded on its
+        # own as in NumPy (terms.rounded: no fused multiply-add across the sum)
+        forward_reward, ctrl_cost, extra = (rounded(x) for x in (forward_reward, ctrl_cost, extra))
+        reward = (forward_reward + survive) - (ctrl_cost + extra)
         metrics = {
             "x_position": self.x_position(data).astype(self.dtype),
             "x_velocity": x_velocity,
@@ -253,6 +275,11 @@ class LocomotionEnv(brax_base.Env):
         return int(self.mj_model.nu)
 
     @property
+    def native_physics(self) -> Optional[NativePhysics]:
+        """The MuJoCo C stepper of ``backend="mujoco"`` (None for MJX)."""
+        return self._native
+
+    @property
     def backend(self) -> str:
-        """Physics backend name (brax API): always ``'mjx'``."""
-        return "mjx"
+        """Physics backend name (brax API): ``'mjx'`` or ``'mujoco'`` (MuJoCo C, envs/native.py)."""
+        return self.physics_backend

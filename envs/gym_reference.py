@@ -91,16 +91,20 @@ def record_random_and_sine(env_id: str, n_steps: int, seed: int) -> Dict[str, np
 
 
 def teacher_forced_step(env: LocomotionEnv) -> Callable[..., State]:
-    """Jitted ``f(qpos, qvel, qacc_warmstart, xpos, action) -> State`` batched over axis 0.
+    """Jitted ``f(exact, qpos, qvel, qacc_warmstart, xpos, action) -> State`` batched over axis 0.
 
     Each element starts from a reset state whose physics is replaced by the recorded Gymnasium
-    pre-step state, then takes one ``env.step`` with the recorded action.
+    pre-step state, then takes one ``env.step`` with the recorded action. ``exact`` is the native
+    backend's float64 state (``NativePhysics.exact_state``; ignored, may be None, for MJX).
     """
     template = env.reset(jax.random.PRNGKey(0))
 
-    def one(qpos, qvel, warm, xpos, action):
-        data = template.pipeline_state.replace(qpos=qpos, qvel=qvel, qacc_warmstart=warm,
-                                               xpos=xpos)
+    def one(exact, qpos, qvel, warm, xpos, action):
+        if env.backend == "mujoco":
+            data = template.pipeline_state.replace(exact=exact, qpos=qpos, qvel=qvel, xpos=xpos)
+        else:
+            data = template.pipeline_state.replace(qpos=qpos, qvel=qvel, qacc_warmstart=warm,
+                                                   xpos=xpos)
         return env.step(template.replace(pipeline_state=data), action)
 
     return jax.jit(jax.vmap(one))
@@ -110,4 +114,7 @@ def run_teacher_forced(env: LocomotionEnv, rec: Dict[str, np.ndarray], fn=None) 
     """Apply :func:`teacher_forced_step` to every recorded step of ``rec``; returns batched State."""
     fn = fn or teacher_forced_step(env)
     cast = lambda k: jnp.asarray(np.array(rec[k]), dtype=env.dtype)
-    return fn(cast("qpos"), cast("qvel"), cast("qacc_warmstart"), cast("xpos"), cast("action"))
+    exact = None
+    if env.backend == "mujoco":  # the recorded float64 state, exactly, whatever JAX's precision
+        exact = jnp.asarray(env.native_physics.exact_state(rec["qpos"], rec["qvel"], rec["qacc_warmstart"]))
+    return fn(exact, cast("qpos"), cast("qvel"), cast("qacc_warmstart"), cast("xpos"), cast("action"))

@@ -1,0 +1,171 @@
+"""Native MuJoCo C physics inside a jitted JAX program (``envs.make(..., backend="mujoco")``).
+
+The physics of every lane runs in MuJoCo C, the library Gymnasium itself runs, through one
+``jax.pure_callback`` per env step (``vmap_method="broadcast_all"``: a vmapped or nested-vmapped
+call reaches the host once, with every lane's arrays stacked along leading axes). Everything
+else (observation, reward, termination, time limit, auto-reset) stays the task's JAX code, shared
+with the MJX backend: :class:`NativeData` exposes the fields the tasks read (``qpos``, ``qvel``,
+``xpos``, ``cfrc_ext``) in the env dtype.
+
+Exactness: the physics state that continues an episode (qpos, qvel and the solver's warm start
+``qacc_warmstart``) is carried as the raw bits of float64 numbers (``uint32[2 n]``), so physics is
+float64 and continues bit for bit even when JAX runs in float32 (then only what the task reads is
+rounded to float32). One step is Gymnasium's ``do_simulation``: ``ctrl = action``,
+``mj_step(nstep=frame_skip)``, then ``mj_rnePostConstraint`` where the task reads contact forces;
+a reset is Gymnasium's ``mj_resetData`` + ``set_state`` (``mj_forward``). In float64 this gives
+Gymnasium's observations, rewards and terminations bit for bit (tests/test_envs_native.py).
+
+Lanes are split into at most ``threads`` blocks stepped by a thread pool (MuJoCo releases the GIL
+inside ``mj_step``); ``threads`` defaults to the number of CPUs this process may use.
+On a GPU the same code runs, but every step copies the lanes to the host and back (slow there:
+use the MJX backend on accelerators).
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+from concurrent.futures import ThreadPoolExecutor
+from typing import Optional
+
+import jax
+import jax.numpy as jnp
+import mujoco
+import numpy as np
+from flax import struct
+
+
+@struct.dataclass
+class NativeData:
+    """Per-lane physics of the native backend (the ``pipeline_state`` of its ``State``).
+
+    ``exact``: float64 bits of concat(qpos, qvel, qacc_warmstart) as uint32 (what continues the
+    episode); ``qpos``, ``qvel``, ``xpos`` [nbody, 3] and ``cfrc_ext`` [nbody, 6] (zeros unless
+    the task needs contact forces): the same numbers in the env dtype, for the task's terms."""
+
+    exact: jax.Array
+    qpos: jax.Array
+    qvel: jax.Array
+    xpos: jax.Array
+    cfrc_ext: jax.Array
+
+
+def _float64_bits(x: np.ndarray) -> np.ndarray:
+    """float64[..., n] -> uint32[..., 2n] (the same bytes)."""
+    return np.ascontiguousarray(x, dtype=np.float64).view(np.uint32)
+
+
+def _from_bits(bits: np.ndarray) -> np.ndarray:
+    """uint32[..., 2n] -> float64[..., n] (the same bytes)."""
+    return np.ascontiguousarray(bits, dtype=np.uint32).view(np.float64)
+
+
+class NativePhysics:
+    """MuJoCo C stepping of ``mj_model`` for jitted code: :meth:`reset` and :meth:`step` are
+    pure from JAX's point of view (outputs depend only on inputs) and accept any vmap nesting."""
+
+    def __init__(self, mj_model: mujoco.MjModel, frame_skip: int, post_constraint: bool,
+                 dtype, threads: Optional[int] = None):
+        self.model = mj_model
+        self.frame_skip = int(frame_skip)
+        self.post_constraint = bool(post_constraint)
+        self.dtype = jnp.dtype(dtype)
+        self.nq, self.nv, self.nbody = mj_model.nq, mj_model.nv, mj_model.nbody
+        self.threads = max(1, int(threads or len(os.sched_getaffinity(0))))
+        self._local = threading.local()
+        self._pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
+
+    # ---------------------------------------------------------------- host side (NumPy, MuJoCo C)
+    def _mjdata(self) -> mujoco.MjData:
+        d = getattr(self._local, "data", None)
+        if d is None:
+            d = self._local.data = mujoco.MjData(self.model)
+        return d
+
+    def _outputs(self, d: mujoco.MjData, out: dict, i: int) -> None:
+        out["exact"][i] = np.concatenate([d.qpos, d.qvel, d.qacc_warmstart])
+        out["xpos"][i] = d.xpos
+        out["cfrc_ext"][i] = d.cfrc_ext
+
+    def _new_outputs(self, n: int) -> dict:
+        return {"exact": np.empty((n, self.nq + 2 * self.nv)),
+                "xpos": np.empty((n, self.nbody, 3)),
+                "cfrc_ext": np.zeros((n, self.nbody, 6))}
+
+    def _reset_lanes(self, qpos, qvel, out, lanes) -> None:
+        m, d = self.model, self._mjdata()
+        for i in lanes:
+            mujoco.mj_resetData(m, d)
+            d.qpos[:] = qpos[i]
+            d.qvel[:] = qvel[i]
+            mujoco.mj_forward(m, d)
+            self._outputs(d, out, i)
+
+    def _step_lanes(self, exact, ctrl, out, lanes) -> None:
+        m, d = self.model, self._mjdata()
+        nq, nv = self.nq, self.nv
+        for i in lanes:
+            d.qpos[:] = exact[i, :nq]
+            d.qvel[:] = exact[i, nq:nq + nv]
+            d.qacc_warmstart[:] = exact[i, nq + nv:]
+            d.ctrl[:] = ctrl[i]
+            mujoco.mj_step(m, d, nstep=self.frame_skip)
+            if self.post_constraint:
+                mujoco.mj_rnePostConstraint(m, d)
+            self._outputs(d, out, i)
+
+    def _run(self, fn, n: int, *args) -> dict:
+        out = self._new_outputs(n)
+        if self._pool is None or n < 2:
+            fn(*args, out, range(n))
+        else:
+            blocks = [range(b, n, self.threads) for b in range(min(self.threads, n))]
+            for f in [self._pool.submit(fn, *args, out, lanes) for lanes in blocks]:
+                f.result()
+        return out
+
+    def _host(self, kind: str, a: np.ndarray, b: np.ndarray):
+        batch = a.shape[:-1]
+        a2 = a.reshape(-1, a.shape[-1])
+        b2 = b.reshape(-1, b.shape[-1])
+        if kind == "reset":
+            out = self._run(self._reset_lanes, a2.shape[0], a2.astype(np.float64), b2.astype(np.float64))
+        else:
+            out = self._run(self._step_lanes, a2.shape[0], _from_bits(a2), b2.astype(np.float64))
+        exact = out["exact"]
+        return (_float64_bits(exact).reshape(*batch, -1),
+                exact.reshape(*batch, -1).astype(self.dtype),
+                out["xpos"].reshape(*batch, self.nbody, 3).astype(self.dtype),
+                out["cfrc_ext"].reshape(*batch, self.nbody, 6).astype(self.dtype))
+
+    # ---------------------------------------------------------------- JAX side
+    def _call(self, kind: str, a: jax.Array, b: jax.Array) -> NativeData:
+        n = self.nq + 2 * self.nv
+        shapes = (jax.ShapeDtypeStruct((2 * n,), jnp.uint32), jax.ShapeDtypeStruct((n,), self.dtype),
+                  jax.ShapeDtypeStruct((self.nbody, 3), self.dtype),
+                  jax.ShapeDtypeStruct((self.nbody, 6), self.dtype))
+        exact, flat, xpos, cfrc = jax.pure_callback(
+            lambda x, y: self._host(kind, np.asarray(x), np.asarray(y)), shapes, a, b,
+            vmap_method="broadcast_all")
+        return NativeData(exact=exact, qpos=flat[:self.nq], qvel=flat[self.nq:self.nq + self.nv],
+                          xpos=xpos, cfrc_ext=cfrc)
+
+    def reset(self, qpos: jax.Array, qvel: jax.Array) -> NativeData:
+        """Gymnasium's reset physics: ``mj_resetData``, ``qpos``/``qvel`` set, ``mj_forward``."""
+        return self._call("reset", qpos, qvel)
+
+    def step(self, data: NativeData, action: jax.Array) -> NativeData:
+        """Gymnasium's ``do_simulation``: ``ctrl = action``, ``frame_skip`` ``mj_step``s (then
+        ``mj_rnePostConstraint`` if the task reads contact forces), from ``data``'s exact state."""
+        return self._call("step", data.exact, action)
+
+    def exact_state(self, qpos: np.ndarray, qvel: np.ndarray, qacc_warmstart: np.ndarray) -> np.ndarray:
+        """Host float64 arrays [..., nq], [..., nv], [..., nv] -> the ``exact`` field (uint32 bits)."""
+        return _float64_bits(np.concatenate([qpos, qvel, qacc_warmstart], axis=-1))
+
+    def initial_data(self) -> NativeData:
+        """Zero physics of the right shapes (for sizes; not a valid state to step)."""
+        n = self.nq + 2 * self.nv
+        z = lambda *s: jnp.zeros(s, self.dtype)
+        return NativeData(exact=jnp.zeros((2 * n,), jnp.uint32), qpos=z(self.nq), qvel=z(self.nv),
+                          xpos=z(self.nbody, 3), cfrc_ext=z(self.nbody, 6))

@@ -1,0 +1,150 @@
+"""The native backend (``envs.make(..., backend="mujoco")``: MuJoCo C inside the jitted program)
+against Gymnasium's own env, bit for bit in float64.
+
+Teacher forcing: every recorded Gymnasium pre-step state (1000 random + 1000 sine-controller
+steps) is stepped by our env with the recorded action, all at once (the lanes split over the
+thread pool): obs, reward and terminated equal Gymnasium's exactly. Closed loop: from
+Gymnasium's reset state, the same 1000 actions (resetting both where Gymnasium terminates) give
+Gymnasium's trajectory exactly. In float32 JAX the physics stays float64 (carried as raw bits),
+so observations are exactly Gymnasium's rounded to float32.
+"""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import envs
+from envs import gym_reference as gr
+from test_envs_equivalence import N_STEPS, env_params
+
+ALL = ("Hopper-v5", "Walker2d-v5", "HalfCheetah-v5", "Swimmer-v5", "Ant-v5", "Hopper-v4",
+       "Walker2d-v4")
+FAST = ("Hopper-v5", "HalfCheetah-v5")
+
+
+@pytest.fixture
+def x64():
+    prev = jax.config.jax_enable_x64
+    jax.config.update("jax_enable_x64", True)
+    yield
+    jax.config.update("jax_enable_x64", prev)
+
+
+@pytest.fixture(scope="module")
+def recordings():
+    cache = {}
+
+    def get(env_id):
+        if env_id not in cache:
+            cache[env_id] = gr.record_random_and_sine(env_id, N_STEPS, seed=7)
+        return cache[env_id]
+
+    return get
+
+
+@pytest.mark.parametrize("env_id", env_params(ALL, fast=FAST))
+def test_teacher_forced_float64_is_bit_identical(env_id, x64, recordings):
+    rec = recordings(env_id)
+    st = gr.run_teacher_forced(envs.make(env_id, backend="mujoco"), rec)
+    assert st.obs.dtype == jnp.float64
+    np.testing.assert_array_equal(np.asarray(st.obs), rec["obs"])
+    np.testing.assert_array_equal(np.asarray(st.reward), rec["reward"])
+    np.testing.assert_array_equal(np.asarray(st.done) > 0, rec["terminated"])
+
+
+@pytest.mark.parametrize("env_id", env_params(ALL, fast=("HalfCheetah-v5",)))
+def test_teacher_forced_float32_obs_are_gymnasiums_rounded(env_id, recordings):
+    """float32 JAX: the physics is still float64, so obs = float32(Gymnasium's obs) exactly; the
+    reward (computed from float32 positions) within 1e-4, terminations identical."""
+    assert not jax.config.jax_enable_x64
+    rec = recordings(env_id)
+    st = gr.run_teacher_forced(envs.make(env_id, backend="mujoco"), rec)
+    assert st.obs.dtype == jnp.float32
+    np.testing.assert_array_equal(np.asarray(st.obs), rec["obs"].astype(np.float32))
+    assert np.abs(np.asarray(st.reward, np.float64) - rec["reward"]).max() <= 1e-4
+    np.testing.assert_array_equal(np.asarray(st.done) > 0, rec["terminated"])
+
+
+def closed_loop(env_id, n_steps=1000, seed=3):
+    """Run Gymnasium and our native env side by side from Gymnasium's reset state with the same
+    random actions (both reset to Gymnasium's next reset state when it terminates); returns the
+    stacked (ours, theirs) obs, rewards and terminated flags."""
+    import gymnasium as gym
+
+    env = envs.make(env_id, backend="mujoco")
+    genv = gym.make(env_id).unwrapped
+    rng = np.random.default_rng(seed)
+    reset = jax.jit(lambda q, v: env.reset(jax.random.PRNGKey(0)).replace(
+        pipeline_state=env.physics_reset(q, v)))
+    observe = jax.jit(lambda st: st.replace(obs=env.observation(st.pipeline_state)))
+    step = jax.jit(env.step)
+    ours, theirs = {"obs": [], "reward": [], "term": []}, {"obs": [], "reward": [], "term": []}
+
+    def restart():
+        obs, _ = genv.reset(seed=int(rng.integers(2**31)))
+        st = observe(reset(jnp.asarray(genv.data.qpos), jnp.asarray(genv.data.qvel)))
+        ours["obs"].append(np.asarray(st.obs))
+        theirs["obs"].append(obs)
+        return st
+
+    st = restart()
+    for _ in range(n_steps):
+        a = rng.uniform(-1.0, 1.0, env.action_size).astype(np.float32).astype(np.float64)
+        obs, reward, term, _, _ = genv.step(a)
+        st = step(st, jnp.asarray(a))
+        terminated = (st.done > 0) & (st.info["truncation"] == 0)
+        for d, o, r, t in ((ours, st.obs, st.reward, terminated), (theirs, obs, reward, term)):
+            d["obs"].append(np.asarray(o))
+            d["reward"].append(float(r))
+            d["term"].append(bool(t))
+        if term:
+            st = restart()
+    genv.close()
+    return ({k: np.asarray(v) for k, v in ours.items()}, {k: np.asarray(v) for k, v in theirs.items()})
+
+
+@pytest.mark.parametrize("env_id", env_params(ALL, fast=("Hopper-v5",)))
+def test_closed_loop_1000_steps_is_gymnasiums_trajectory(env_id, x64):
+    ours, theirs = closed_loop(env_id)
+    if env_id.startswith("Hopper"):
+        assert theirs["term"].sum() >= 5  # several episodes, resets included
+    for k in ("obs", "reward", "term"):
+        np.testing.assert_array_equal(ours[k], theirs[k], err_msg=k)
+
+
+def test_nested_vmap_reaches_the_host_once_with_every_lane():
+    """A [2, 3] batch of resets and steps (nested vmap, broadcast_all) equals each lane alone."""
+    env = envs.make("Hopper-v5", backend="mujoco")
+    keys = jax.random.split(jax.random.PRNGKey(1), 6).reshape(2, 3, 2)
+    actions = jax.random.uniform(jax.random.PRNGKey(2), (2, 3, env.action_size), minval=-1, maxval=1)
+    batched = jax.jit(jax.vmap(jax.vmap(lambda k, a: env.step(env.reset(k), a))))(keys, actions)
+    one = jax.jit(lambda k, a: env.step(env.reset(k), a))
+    for i in range(2):
+        for j in range(3):
+            single = one(keys[i, j], actions[i, j])
+            np.testing.assert_array_equal(np.asarray(single.pipeline_state.exact),
+                                          np.asarray(batched.pipeline_state.exact[i, j]))
+            np.testing.assert_array_equal(np.asarray(single.obs), np.asarray(batched.obs[i, j]))
+
+
+def test_unknown_backend_is_one_line_naming_the_valid_ones():
+    with pytest.raises(ValueError, match=r"^unknown backend 'bullet'; valid backends: mjx, mujoco$"):
+        envs.make("Hopper-v5", backend="bullet")
+
+
+@pytest.mark.parametrize("shape", [(1,), (3,), (6,), (8,), (17,), (14, 6), (300,)])
+def test_reward_arithmetic_rounds_as_numpy(shape, x64):
+    """envs.terms: sum_of_squares == np.sum(np.square(x)), w * sum_of_squares - f rounds like
+    NumPy (no fused multiply-add), true_divide == x / dt, bit for bit on 200 random vectors."""
+    from envs.terms import rounded, sum_of_squares, true_divide
+
+    rng = np.random.default_rng(len(shape) * 100 + shape[0])
+    x = rng.normal(size=(200, *shape)) * 10.0 ** rng.integers(-3, 3, size=(200, *shape))
+    f = rng.normal(size=200)
+    ours = jax.jit(jax.vmap(lambda v, g: (sum_of_squares(v), g - rounded(0.1 * sum_of_squares(v)),
+                                          true_divide(g, 0.008))))(x, f)
+    ss = np.array([np.sum(np.square(v)) for v in x])
+    np.testing.assert_array_equal(np.asarray(ours[0]), ss)
+    np.testing.assert_array_equal(np.asarray(ours[1]), f - 0.1 * ss)
+    np.testing.assert_array_equal(np.asarray(ours[2]), f / 0.008)
