@@ -10,6 +10,7 @@ under vmap) for one seed, following the original TD3 ``main.py``:
     a_t  = U(low, high)                         if t < learning_starts
          = clip(μ(s_t) + N(0,(0.1 m)²), low, high)  otherwise
     (s', s_final) = step_autoreset(env, s_t, a_t)       s_final = true obs reached by the step
+                    (all lanes at once; resets computed only when some lane's episode ended)
     replay ← (s_t, a_t, r_t, s_final, terminated = done·(1 − truncation))
     if t ≥ learning_starts: one TD3 update, the actor's on iterations it = t − learning_starts + 1
                             with it mod policy_freq = 0 (the original's ``total_it``)
@@ -87,22 +88,27 @@ def _zero_metrics(dt) -> UpdateMetrics:
     return UpdateMetrics(z, z, z, jnp.zeros((), jnp.bool_))
 
 
-def env_step(agent: TD3, env, learning_starts: int, s: TrainState, t: Array):
-    """Act (random before ``learning_starts``, else exploration), step with auto-reset and insert
-    the transition. Returns (state with new key/env/buffer/episode stats, update key)."""
+def _act(agent: TD3, learning_starts: int, s: TrainState, t: Array, hparams=None):
+    """One lane's action at step t (uniform before ``learning_starts``, else exploration) and its
+    key stream: (action, next training key, reset key, update key)."""
+    agent = agent.with_hparams(hparams)
     key, k_act, k_reset, k_update = jax.random.split(s.key, 4)
-    obs = s.env_state.obs
     action = jax.lax.cond(
         t < learning_starts,
         lambda: agent.random_action(k_act),
-        lambda: agent.explore(s.agent.actor, obs, k_act),
+        lambda: agent.explore(s.agent.actor, s.env_state.obs, k_act),
     )
-    next_state, final_obs = envs.step_autoreset(env, s.env_state, action, k_reset)
+    return action, key, k_reset, k_update
+
+
+def _record(s: TrainState, key: Array, action: Array, next_state, final_obs) -> TrainState:
+    """One lane's bookkeeping after its env step: replay insert and episode statistics."""
     done = next_state.done > 0
     terminated = next_state.done * (1 - next_state.info["truncation"])
-    buffer = replay.add(s.buffer, replay.Transition(obs, action, next_state.reward, final_obs, terminated))
+    buffer = replay.add(s.buffer, replay.Transition(s.env_state.obs, action, next_state.reward,
+                                                    final_obs, terminated))
     ep_ret = s.episode_return + next_state.reward.astype(s.episode_return.dtype)
-    s = s._replace(
+    return s._replace(
         key=key,
         env_state=next_state,
         buffer=buffer,
@@ -110,14 +116,24 @@ def env_step(agent: TD3, env, learning_starts: int, s: TrainState, t: Array):
         last_return=jnp.where(done, ep_ret, s.last_return),
         episodes=s.episodes + done.astype(jnp.int32),
     )
-    return s, k_update
 
 
-def train_step(agent: TD3, env, learning_starts: int, s: TrainState, t: Array, hparams=None) -> TrainState:
-    """One env step and (from ``learning_starts`` on) one TD3 update for one seed at global step t.
-    ``hparams``: this lane's sweep values (see ``TD3.with_hparams``); None/empty = ``agent``'s config."""
+def env_step_lanes(agent: TD3, env, learning_starts: int, states: TrainState, t: Array, hparams=None):
+    """Every lane (axis 0 of ``states``) acts, the env steps all lanes at once with auto-reset
+    (resets computed only on steps where some lane finished), and each lane stores its transition.
+    Returns (states with new key/env/buffer/episode stats, update keys[L])."""
+    actions, keys, k_reset, k_update = jax.vmap(
+        lambda s, h: _act(agent, learning_starts, s, t, h))(states, hparams)
+    next_env, final_obs = envs.step_autoreset_lanes(env, states.env_state, actions, k_reset)
+    states = jax.vmap(_record)(states, keys, actions, next_env, final_obs)
+    return states, k_update
+
+
+def update_step(agent: TD3, learning_starts: int, s: TrainState, k_update: Array, t: Array,
+                hparams=None) -> TrainState:
+    """One lane's TD3 update at global step t (from ``learning_starts`` on; the actor on
+    iterations ``t - learning_starts + 1`` divisible by policy_freq) and the NaN/inf watch."""
     agent = agent.with_hparams(hparams)
-    s, k_update = env_step(agent, env, learning_starts, s, t)
     k_sample, k_td3 = jax.random.split(k_update)
     it = t - learning_starts + 1
     update_actor = (it % agent.config.policy_freq) == 0
@@ -139,6 +155,14 @@ def train_step(agent: TD3, env, learning_starts: int, s: TrainState, t: Array, h
     return s._replace(agent=agent_state, bad_step=bad_step)
 
 
+def train_step_lanes(agent: TD3, env, learning_starts: int, states: TrainState, t: Array,
+                     hparams=None) -> TrainState:
+    """One env step and (from ``learning_starts`` on) one TD3 update for every lane at step t.
+    ``hparams``: per-lane sweep values ``{path: [L]}`` (see ``TD3.with_hparams``), None for none."""
+    states, k_update = env_step_lanes(agent, env, learning_starts, states, t, hparams)
+    return jax.vmap(lambda s, k, h: update_step(agent, learning_starts, s, k, t, h))(states, k_update, hparams)
+
+
 def make_chunk_fn(agent: TD3, env, learning_starts: int, num_steps: int):
     """``chunk(states, t0, hparams) -> states``: ``num_steps`` env steps t0 … t0+num_steps−1 for all
     lanes (states batched on axis 0; t0 an int32 scalar shared by the lanes; ``hparams`` a dict of
@@ -147,8 +171,7 @@ def make_chunk_fn(agent: TD3, env, learning_starts: int, num_steps: int):
     def chunk(states: TrainState, t0: Array, hparams=None) -> TrainState:
         def body(carry, i):
             t = (t0 + i).astype(jnp.int32)
-            carry = jax.vmap(lambda s, h: train_step(agent, env, learning_starts, s, t, h))(carry, hparams)
-            return carry, None
+            return train_step_lanes(agent, env, learning_starts, carry, t, hparams), None
 
         states, _ = jax.lax.scan(body, states, jnp.arange(num_steps, dtype=jnp.int32))
         return states

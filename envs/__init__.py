@@ -1,7 +1,7 @@
 """MJX locomotion environments with Gymnasium v4/v5 semantics and the brax ``Env`` API.
 
 Public contract: ``make(env_id, **options)``, ``ENV_IDS``, ``step_autoreset(env, state, action,
-reset_key) -> (next_state, final_obs)``. See docs/ENVS.md.
+reset_key) -> (next_state, final_obs)`` and its batched ``step_autoreset_lanes``. See docs/ENVS.md.
 """
 
 from envs import deps
@@ -10,10 +10,10 @@ deps.import_mjx_quietly()  # before anything else imports mujoco.mjx (or brax, w
 deps.check_versions()
 
 from envs import mjx_compat  # noqa: E402
-from envs.autoreset import step_autoreset
-from envs.base import LocomotionEnv, State
+from envs.autoreset import step_autoreset, step_autoreset_lanes
+from envs.base import BACKENDS, LocomotionEnv, State
 from envs.registry import ENV_IDS, make
 
 mjx_compat.install()
 
-__all__ = ["ENV_IDS", "LocomotionEnv", "State", "make", "step_autoreset"]
+__all__ = ["BACKENDS", "ENV_IDS", "LocomotionEnv", "State", "make", "step_autoreset", "step_autoreset_lanes"]

@@ -1,4 +1,4 @@
-"""Env throughput benchmark: batched MJX ``jit(scan(vmap(step)))`` vs native MuJoCo ``mj_step``.
+"""Env throughput benchmark: batched ``jit(scan(vmap(step)))`` (MJX or the native backend) vs a plain MuJoCo C loop.
 
 Entry point :func:`main` (``python -m swim_jax.bench envs ...`` or ``python -m envs.bench ...``).
 For each env and batch size: compile time of the scanned, vmapped step; env steps/s of MJX
@@ -25,6 +25,7 @@ import jax.numpy as jnp
 import mujoco
 import numpy as np
 
+from envs.base import BACKENDS
 from envs.mjx_solver import check_implementation
 from envs.registry import ENV_IDS, make
 
@@ -70,16 +71,34 @@ def make_rollout(env, batch: int, scan_len: int, shard: bool):
     return jax.jit(rollout), states, jax.random.PRNGKey(1)
 
 
+def physics_variants(backends: Sequence[str], solver_impls: Sequence[str]) -> List[str]:
+    """Row labels of the physics timed: ``mjx/<solver impl>`` per solver for the MJX backend,
+    ``mujoco`` for the native backend (MuJoCo C through the jitted callback)."""
+    out = []
+    for b in backends:
+        out += [f"mjx/{i}" for i in solver_impls] if b == "mjx" else [b]
+    return out
+
+
+def _make_variant(env_id: str, variant: str, options: Dict):
+    if variant.startswith("mjx/"):
+        return make(env_id, **options, solver_impl=variant.split("/", 1)[1])
+    return make(env_id, **options, backend=variant)
+
+
 def bench_env(env_id: str, batches: Sequence[int], scan_len: int, repeats: int,
               native_steps: int, options: Dict, shard: bool,
-              solver_impls: Sequence[str] = ("c",)) -> List[Dict]:
-    """Measure one env at every batch size, one row per solver implementation: each is compiled
-    first, then native MuJoCo and every implementation are timed interleaved
+              solver_impls: Sequence[str] = ("c",), backends: Sequence[str] = ("mjx",)) -> List[Dict]:
+    """Measure one env at every batch size, one row per physics variant (MJX with each solver
+    implementation, and/or the native backend's jitted rollout): each is compiled first, then a
+    plain MuJoCo C loop (one core, no JAX) and every variant are timed interleaved
     (:func:`swim_jax.timing.time_interleaved`, rotating order, medians)."""
     from swim_jax.timing import time_interleaved
 
-    env_by_impl = {impl: make(env_id, **options, solver_impl=impl) for impl in solver_impls}
-    native_env = env_by_impl[solver_impls[0]]
+    variants = physics_variants(backends, solver_impls)
+    env_by_impl = {v: _make_variant(env_id, v, options) for v in variants}
+    native_env = env_by_impl[variants[0]]
+    solver_impls = variants
     rows = []
     for batch in batches:
         candidates, compile_s = {"native": native_rollout(native_env, native_steps)}, {}
@@ -93,13 +112,14 @@ def bench_env(env_id: str, batches: Sequence[int], scan_len: int, repeats: int,
         native_all = [native_steps / t for t in timings["native"].samples]
         nat_med = statistics.median(native_all)
         for impl in solver_impls:
-            mjx_all = [batch * scan_len / t for t in timings[impl].samples]
-            mjx_med = statistics.median(mjx_all)
-            row = dict(env=env_id, batch=batch, scan_len=scan_len, solver_impl=impl,
+            steps_all = [batch * scan_len / t for t in timings[impl].samples]
+            med = statistics.median(steps_all)
+            row = dict(env=env_id, batch=batch, scan_len=scan_len, physics=impl,
+                       ms_per_batched_step=round(1000 * batch / med, 4),
                        compile_s=round(compile_s[impl], 2),
-                       mjx_steps_per_s=round(mjx_med, 1), native_steps_per_s=round(nat_med, 1),
-                       ratio_vs_one_native_core=round(mjx_med / nat_med, 4),
-                       mjx_all=[round(x, 1) for x in mjx_all],
+                       steps_per_s=round(med, 1), native_steps_per_s=round(nat_med, 1),
+                       ratio_vs_one_native_core=round(med / nat_med, 4),
+                       steps_all=[round(x, 1) for x in steps_all],
                        native_all=[round(x, 1) for x in native_all])
             print(json.dumps(row), flush=True)
             rows.append(row)
@@ -116,7 +136,8 @@ def main(argv: Optional[Sequence[str]] = None) -> Dict:
     Flags: --envs (comma list, default the five v5 envs), --batches (default 1,8,64,256,1024),
     --scan-len (default 50), --repeats (3), --native-steps (2000), --solver-iterations /
     --ls-iterations (int or 'none' for the XML's 100 / 50; defaults 8 / 16), --solver-impl (comma
-    list of c, mjx; timed interleaved, one row each), --shard, --out-dir.
+    list of c, mjx; timed interleaved, one row each), --backends (comma list of mjx, mujoco),
+    --shard, --out-dir.
     """
     p = argparse.ArgumentParser(prog="swim_jax.bench envs", description=__doc__.split("\n")[0])
     p.add_argument("--envs", default=",".join(DEFAULT_ENVS))
@@ -129,6 +150,9 @@ def main(argv: Optional[Sequence[str]] = None) -> Dict:
     p.add_argument("--solver-impl", default="c",
                    help="comma list of constraint solvers timed interleaved: c (MuJoCo C's Newton "
                         "method, the default) and/or mjx (MJX's own)")
+    p.add_argument("--backends", default="mjx",
+                   help="comma list of physics backends timed interleaved: mjx (one row per "
+                        "--solver-impl) and/or mujoco (MuJoCo C inside the jitted program)")
     p.add_argument("--shard", action="store_true")
     p.add_argument("--out-dir", default=os.path.join("runs", "bench"))
     args = p.parse_args(argv)
@@ -140,12 +164,16 @@ def main(argv: Optional[Sequence[str]] = None) -> Dict:
         impls = [check_implementation(i) for i in args.solver_impl.split(",") if i]
     except ValueError as exc:
         p.exit(2, f"swim_jax.bench envs: {exc}\n")
+    backends = [b for b in args.backends.split(",") if b]
+    bad = [b for b in backends if b not in BACKENDS]
+    if bad or not backends:
+        p.exit(2, f"swim_jax.bench envs: unknown backend {','.join(bad)!r}; valid backends: {', '.join(BACKENDS)}\n")
     options = dict(solver_iterations=args.solver_iterations, ls_iterations=args.ls_iterations)
     batches = [int(b) for b in args.batches.split(",")]
     rows = []
     for e in env_ids:
         rows += bench_env(e, batches, args.scan_len, args.repeats, args.native_steps, options,
-                          args.shard, tuple(impls))
+                          args.shard, tuple(impls), tuple(backends))
     stamp = time.strftime("%Y%m%dT%H%M%SZ", time.gmtime())
     result = dict(
         benchmark="envs", timestamp=stamp, options=options, shard=args.shard,

@@ -34,10 +34,13 @@ class ConfigError(ValueError):
 
 @dataclass(frozen=True)
 class EnvConfig:
-    """Environment id (``envs.ENV_IDS``) and its time limit."""
+    """Environment id (``envs.ENV_IDS``), its time limit and physics backend (``mjx``: MJX in
+    JAX, batched on any device; ``mujoco``: MuJoCo C on the host from inside the jitted program,
+    bit for bit Gymnasium's physics and the faster one on a CPU, see envs/native.py)."""
 
     id: str = "Walker2d-v5"
     max_episode_steps: int = 1000
+    backend: str = "mjx"
 
 
 @dataclass(frozen=True)
@@ -262,6 +265,8 @@ def validate(cfg: Config) -> Config:
 
     if cfg.env.id not in envs.ENV_IDS:
         raise ConfigError(f"unknown env.id {cfg.env.id!r}; valid: {', '.join(envs.ENV_IDS)}")
+    if cfg.env.backend not in envs.BACKENDS:
+        raise ConfigError(f"unknown env.backend {cfg.env.backend!r}; valid: {', '.join(envs.BACKENDS)}")
     act = cfg.agent.activation
     if act.name not in ACTIVATIONS:
         raise ConfigError(f"unknown agent.activation.name {act.name!r}; valid: {', '.join(sorted(ACTIVATIONS))}")

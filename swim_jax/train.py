@@ -85,8 +85,8 @@ def build(cfg: Config):
     from agents.td3 import TD3
 
     _setup_precision(cfg)
-    env = envs.make(cfg.env.id, max_episode_steps=cfg.env.max_episode_steps)
-    eval_env = envs.make(cfg.env.id, max_episode_steps=cfg.env.max_episode_steps)
+    env = envs.make(cfg.env.id, max_episode_steps=cfg.env.max_episode_steps, backend=cfg.env.backend)
+    eval_env = envs.make(cfg.env.id, max_episode_steps=cfg.env.max_episode_steps, backend=cfg.env.backend)
     dtype = jnp.float64 if cfg.precision == "float64" else jnp.float32
     agent = TD3(
         cfg.agent,

@@ -102,11 +102,24 @@ def test_env_benchmark_rejects_an_unknown_solver_with_exit_2(tmp_path, capsys):
 @pytest.mark.slow
 def test_env_benchmark_runs_through_the_bench_cli(tmp_path):
     args = ["envs", "--envs", "Hopper-v5", "--batches", "2", "--scan-len", "2", "--repeats", "1"]
-    assert bench.main([*args, "--native-steps", "20", "--solver-impl", "c,mjx", "--out-dir", str(tmp_path)]) == 0
+    assert bench.main([*args, "--native-steps", "20", "--solver-impl", "c,mjx", "--backends", "mjx,mujoco",
+                       "--out-dir", str(tmp_path)]) == 0
     (path,) = tmp_path.glob("envs-*.json")
     rows = json.loads(path.read_text())["rows"]
-    assert [(r["env"], r["solver_impl"]) for r in rows] == [("Hopper-v5", "c"), ("Hopper-v5", "mjx")]
-    assert all(len(r["mjx_all"]) == len(r["native_all"]) == 1 and r["mjx_steps_per_s"] > 0 for r in rows)
+    assert [(r["env"], r["physics"]) for r in rows] == [("Hopper-v5", "mjx/c"), ("Hopper-v5", "mjx/mjx"),
+                                                        ("Hopper-v5", "mujoco")]
+    assert all(len(r["steps_all"]) == len(r["native_all"]) == 1 and r["steps_per_s"] > 0 for r in rows)
+
+
+def test_env_benchmark_rejects_an_unknown_backend_with_exit_2(tmp_path, capsys):
+    from envs.bench import main as bench_envs_main
+
+    with pytest.raises(SystemExit) as e:
+        bench_envs_main(["--envs", "Hopper-v5", "--backends", "mjx,bullet", "--out-dir", str(tmp_path / "o")])
+    assert e.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "unknown backend 'bullet'; valid backends: mjx, mujoco" in err
+    assert not (tmp_path / "o").exists()
 
 
 @pytest.mark.parametrize("args,needle", [(["--lanes", "0,2"], "positive integers"), (["--lanes", "x"], "positive integers"),
