@@ -17,6 +17,10 @@ L twice in the same process, lanes on one device and lanes split over all device
 (e.g. ``--variant matmul_dtype=bfloat16``), timed interleaved with the plain ones.
 
 A sweep of P points × S seeds is a program of L = P·S lanes, so the table is its cost too.
+
+``--roofline`` (default on) also measures the matmul roofline of the update's own products
+(``swim_jax.roofline``) on one core and on all cores, and reports each row's update rate as a
+fraction of cores × the one-core roofline (lanes spread over cores, single-threaded products).
 """
 
 from __future__ import annotations
@@ -46,6 +50,9 @@ def _parser() -> argparse.ArgumentParser:
                         "off: one device; both: time each lane count both ways")
     p.add_argument("--host-devices", type=int, default=0,
                    help="ask XLA for N host CPU devices (sets XLA_FLAGS before JAX starts)")
+    p.add_argument("--roofline", action=argparse.BooleanOptionalAction, default=True,
+                   help="also measure the update's matmul roofline on one core and on all cores "
+                        "(swim_jax.roofline) and report each row's fraction of cores × one-core roofline")
     p.add_argument("--out", default=os.path.join("runs", "bench"), help="folder for the JSON (default runs/bench)")
     return p
 
@@ -86,7 +93,7 @@ def update_flops(agent) -> float:
 
 
 def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overrides=(), log=print,
-            shard: str = "auto", variants=()) -> dict:
+            shard: str = "auto", variants=(), with_roofline: bool = False) -> dict:
     """Compile one program per (lane count, placement, variant), then time ``repeats`` interleaved
     chunks of each. ``variants``: extra override strings "k=v,k=v"; "" (always first) = none."""
     import jax
@@ -130,6 +137,7 @@ def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overr
                 progs[c].chunk_fn(states[c], jnp.asarray((r + 1) * chunk_steps, jnp.int32)), c[1]))
             times[c].append(time.perf_counter() - t0)
     flops = update_flops(progs[candidates[0]].agent)
+    roof = _rooflines(config, (*bench, *overrides), progs[candidates[0]].agent, log) if with_roofline else None
     # cost ratios against the first (single-device) 1-lane program of the same variant
     one = {}
     for L, _sh, v in candidates:
@@ -146,6 +154,8 @@ def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overr
             "ms_per_step": 1000 * med / chunk_steps, "compile_plus_first_chunk_s": compile_s[c],
             "cost_ratio_vs_1": (med / (L * one[v])) if v in one else None,
             "update_gflop_per_s": flops * chunk_steps * L / med / 1e9,
+            # the update's arithmetic rate over (cores × the one-core roofline of its own products)
+            "fraction_of_per_core_roofline": (flops * chunk_steps * L / med / 1e9 / (roof["cores"] * roof["one_core"]["roofline_gflop_per_s"])) if roof else None,
             # executables of this config's chunk (one per lane count and placement) and how many
             # were added while timing (must be 0)
             "chunk_executables": progs[c].chunk_fn._cache_size(),
@@ -157,10 +167,24 @@ def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overr
         "repeats": repeats, "env": base.env.id, "activation": dataclasses.asdict(base.agent.activation),
         "hidden": list(base.agent.hidden), "precision": base.precision, "rows": rows,
         "update_gflop": flops / 1e9,
+        "roofline": roof,
         "machine": {"platform": jax.devices()[0].platform, "device": str(jax.devices()[0]),
                     "cpu_count": os.cpu_count(), "python": platform.python_version(), "jax": jax.__version__},
         "time": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
     }
+
+
+def _rooflines(config: str, overrides, agent, log) -> dict:
+    """The update's matmul roofline (``swim_jax.roofline``) on all cores (this process) and on one
+    core (a pinned child process with single-threaded XLA)."""
+    from swim_jax import roofline
+
+    all_cores = roofline.roofline(agent)
+    one_core = roofline.one_core_roofline(config, overrides)
+    cores = len(os.sched_getaffinity(0))
+    log(f"update matmul roofline: {one_core['roofline_gflop_per_s']:.1f} GFLOP/s on one core, "
+        f"{all_cores['roofline_gflop_per_s']:.1f} on all {cores} cores in one process")
+    return {"cores": cores, "one_core": one_core, "all_cores": all_cores}
 
 
 def markdown(res: dict) -> str:
@@ -168,13 +192,18 @@ def markdown(res: dict) -> str:
     lines = [f"{res['env']} {res['activation']['name']} {res['hidden']} {res['precision']}, "
              f"{res['chunk_steps']} steps per chunk, {res['repeats']} chunks, {res['machine']['device']}; "
              f"one TD3 update = {res['update_gflop']:.3f} GFLOP (XLA cost analysis)",
-             "", "| lanes | devices | variant | env-steps/s (all) | per lane | ms/step | chunk s (min–max) | cost ratio vs 1 | update GFLOP/s | compile + 1st chunk s |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+             "", "| lanes | devices | variant | env-steps/s (all) | per lane | ms/step | chunk s (min–max) | cost ratio vs 1 | update GFLOP/s | of cores × 1-core roofline | compile + 1st chunk s |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    roof = res.get("roofline")
+    if roof:
+        lines.insert(1, f"update matmul roofline (its own products, XLA kernels): {roof['one_core']['roofline_gflop_per_s']:.1f} GFLOP/s "
+                        f"on one core, {roof['all_cores']['roofline_gflop_per_s']:.1f} on all {roof['cores']} cores in one process")
     for r in res["rows"]:
         ratio = "—" if r["cost_ratio_vs_1"] is None else f"{r['cost_ratio_vs_1']:.2f}"
+        frac = "—" if r.get("fraction_of_per_core_roofline") is None else f"{r['fraction_of_per_core_roofline']:.0%}"
         lines.append(f"| {r['lanes']} | {r['devices']} | {r.get('variant') or '—'} | {r['env_steps_per_s']:.0f} | {r['env_steps_per_s_per_lane']:.0f} | "
                      f"{r['ms_per_step']:.2f} | {r['median_s']:.2f} ({r['min_s']:.2f}–{r['max_s']:.2f}) | "
-                     f"{ratio} | {r['update_gflop_per_s']:.1f} | {r['compile_plus_first_chunk_s']:.0f} |")
+                     f"{ratio} | {r['update_gflop_per_s']:.1f} | {frac} | {r['compile_plus_first_chunk_s']:.0f} |")
     return "\n".join(lines)
 
 
@@ -191,7 +220,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.chunk_steps < 1 or args.repeats < 1:
             raise ValueError("--chunk-steps and --repeats must be >= 1")
         res = measure(args.config, lanes, args.chunk_steps, args.repeats, tuple(args.set), shard=args.shard,
-                      variants=tuple(args.variant))
+                      variants=tuple(args.variant), with_roofline=args.roofline)
     except (ValueError, ConfigError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 2

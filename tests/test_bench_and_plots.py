@@ -150,6 +150,7 @@ def test_train_benchmark_times_real_programs_without_recompiling(tmp_path):
         # one executable per lane count of each variant's program, none added while timing
         assert r["chunk_executables"] == 2 and r["compiles_while_timing"] == 0 and r["devices"] == 1 and r["min_s"] <= r["median_s"] <= r["max_s"]
         assert r["env_steps_per_s"] == pytest.approx(50 * r["lanes"] / r["median_s"])
+        assert r["fraction_of_per_core_roofline"] > 0
     assert rows[0]["cost_ratio_vs_1"] == pytest.approx(1.0) and rows[1]["cost_ratio_vs_1"] == pytest.approx(1.0)
 
 
@@ -176,3 +177,27 @@ def test_update_flops_matches_hand_count_of_the_matmuls():
     actor_step = fwd(actor) + fwd(critic) + fwd(critic) + (2 * fwd(actor) - actor[0])
     hand = 2 * b * (critic_only + actor_step / agent.config.policy_freq)
     assert hand <= update_flops(agent) <= 1.10 * hand
+
+
+def test_roofline_lists_the_update_products_with_their_hand_counted_flops():
+    """swim_jax.roofline: a critic-only update of a 16-16 ReLU TD3 (obs 11, act 3, batch 8)
+    has, per twin critic pass, products whose FLOPs sum to the hand count; the actor-step update
+    adds the actor's; each product timed standalone gives a positive rate."""
+    import jax.numpy as jnp
+
+    from agents.td3 import TD3, TD3Config
+    from swim_jax import roofline
+
+    agent = TD3(TD3Config(hidden=(16, 16), batch_size=8), 11, (-1.0,) * 3, (1.0,) * 3, dtype=jnp.float32)
+    dots = roofline.update_dots(agent)
+    assert len(dots[True]) > len(dots[False]) > 0
+    b, o, a, h = 8, 11, 3, 16
+    # forward MACs of one critic (o+a -> h -> h -> 1) and of the actor (o -> h -> h -> a)
+    critic_fwd = (o + a) * h + h * h + h
+    actor_fwd = o * h + h * h + h * a
+    # critic-only: target actor fwd, 2 target critics fwd, 2 critics fwd + bwd (weights: 1x, inputs:
+    # 1x except the first layer) -> 2·b·MACs
+    critic_only = actor_fwd + 2 * critic_fwd + 2 * (critic_fwd + critic_fwd + (critic_fwd - (o + a) * h))
+    assert sum(d.flops for d in dots[False]) == 2 * b * critic_only
+    times = roofline.time_dots(dots[True], repeats=1, loop=2)
+    assert all(t > 0 for t in times.values())
