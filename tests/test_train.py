@@ -31,6 +31,9 @@ TINY = [
     "replay_size=10000",
     "agent.hidden=[64,64]",
     "agent.batch_size=64",
+    # MuJoCo C physics (bit for bit Gymnasium's, tests/test_envs_native.py): the program compiles in
+    # seconds; the MJX backend's training program is exercised end to end by tests/test_sweep.py
+    "env.backend=mujoco",
 ]
 CONFIG = "hopper_relu"
 
@@ -175,6 +178,7 @@ def test_nan_detection_names_seed_step_and_quantity(vmapped):
         (["config=walker_swim", "precision=float16"], "valid: float32, float64"),
         (["config=walker_swim", "matmul_precision=tf32"], "valid: highest, high, default"),
         (["config=walker_swim", "matmul_dtype=float16"], "valid: auto, bfloat16"),
+        (["config=walker_swim", "env.backend=bullet"], "unknown env.backend 'bullet'; valid: mjx, mujoco"),
         (["config=walker_swim", "total_steps=12345"], "multiple of eval_freq"),
         (["config=walker_swim", "bogus"], "expected config=<name>"),
         ([], "valid configs:"),
