@@ -296,6 +296,10 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None]) ->
         log(f"warning: host_devices={cfg.host_devices} but JAX started with {jax.device_count()} devices; "
             f"set XLA_FLAGS=--xla_force_host_platform_device_count={cfg.host_devices} before Python starts")
     sharding, how = lane_sharding(lanes) if cfg.shard_lanes else (None, "shard_lanes=false")
+    if sharding is not None and cfg.env.backend == "mujoco":
+        # XLA's SPMD partitioner places host callbacks on device 0 (gather, step, scatter every
+        # step); the native physics already spreads lanes over cores in its own thread pool
+        sharding, how = None, "env.backend=mujoco: lanes on one device (its thread pool spreads the physics)"
     if jax.device_count() > 1:
         log(f"lanes: {how}")
     hparams = place(hparams, sharding)
