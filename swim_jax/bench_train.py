@@ -92,6 +92,18 @@ def update_flops(agent) -> float:
     return ((d - 1) * counts[0] + counts[1]) / d
 
 
+def _run_chunk(chunk_fn, states, t0: int, chunk_steps: int, per_call: int, sharding):
+    """``chunk_steps`` steps from step ``t0`` as calls of ``per_call`` steps (as the training loop
+    makes them; ``--variant progress_steps=N`` times the cost of splitting a chunk)."""
+    import jax.numpy as jnp
+
+    from swim_jax.sharding import place
+
+    for j in range(chunk_steps // per_call):
+        states = place(chunk_fn(states, jnp.asarray(t0 + j * per_call, jnp.int32)), sharding)
+    return states
+
+
 def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overrides=(), log=print,
             shard: str = "auto", variants=(), with_roofline: bool = False) -> dict:
     """Compile one program per (lane count, placement, variant), then time ``repeats`` interleaved
@@ -104,7 +116,7 @@ def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overr
     from swim_jax.sharding import lane_sharding, place
 
     bench = [f"eval_freq={chunk_steps}", f"total_steps={chunk_steps}", "learning_starts=0",
-             "replay_size=100000", *overrides]
+             "replay_size=100000", f"progress_steps={chunk_steps}", *overrides]
     variant_cfgs = {v: cfgmod.resolve(config, [*bench, *(v.split(",") if v else [])]) for v in ("", *variants)}
     base = variant_cfgs[""]
     candidates = []  # (lanes, sharding or None, variant)
@@ -115,14 +127,15 @@ def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overr
                 candidates.append((L, None, v))
             if shard in ("auto", "both") and sh is not None:
                 candidates.append((L, sh, v))
-    progs, states, compile_s = {}, {}, {}
+    progs, states, compile_s, per_call = {}, {}, {}, {}
     for c in candidates:
         L, sh, v = c
         cfg = dataclasses.replace(variant_cfgs[v], seeds=L, pad_single_seed=False)
         prog = train.programs(cfg)
+        per_call[c] = cfgmod.steps_per_call(cfg)  # a chunk = several calls with progress_steps < chunk
         st = place(prog.init_fn(jnp.asarray(0, jnp.uint32), jnp.arange(L, dtype=jnp.int32)), sh)
         t0 = time.perf_counter()
-        st = jax.block_until_ready(place(prog.chunk_fn(st, jnp.asarray(0, jnp.int32)), sh))
+        st = jax.block_until_ready(_run_chunk(prog.chunk_fn, st, 0, chunk_steps, per_call[c], sh))
         compile_s[c] = time.perf_counter() - t0
         progs[c], states[c] = prog, st
         log(f"lanes {L}{' sharded' if sh else ''}{' ' + v if v else ''}: compiled + first chunk {compile_s[c]:.1f} s")
@@ -133,8 +146,8 @@ def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overr
     for r in range(repeats):
         for c in candidates:
             t0 = time.perf_counter()
-            states[c] = jax.block_until_ready(place(
-                progs[c].chunk_fn(states[c], jnp.asarray((r + 1) * chunk_steps, jnp.int32)), c[1]))
+            states[c] = jax.block_until_ready(_run_chunk(progs[c].chunk_fn, states[c], (r + 1) * chunk_steps,
+                                                         chunk_steps, per_call[c], c[1]))
             times[c].append(time.perf_counter() - t0)
     flops = update_flops(progs[candidates[0]].agent)
     roof = _rooflines(config, (*bench, *overrides), progs[candidates[0]].agent, log) if with_roofline else None

@@ -74,6 +74,12 @@ class Config:
     shard_lanes: bool = True
     # > 0: ask XLA for this many host CPU devices (sets XLA_FLAGS before JAX starts; CPU only)
     host_devices: int = 0
+    # env steps per call of the compiled program; a progress line (env-steps/s, ETA) is printed
+    # between calls at most every ~30 s. Must divide eval_freq (else one call per evaluation).
+    progress_steps: int = 1000
+    # JAX's persistent compilation cache in ~/.cache/swim-jax/xla ($XDG_CACHE_HOME respected), so a
+    # second run of the same program starts in seconds; false (or SWIM_JAX_NO_COMPILATION_CACHE=1) = off
+    compilation_cache: bool = True
     # hyperparameter sweep: {"agent.activation.k": (0.25, 0.5, 1.0), ...}; the grid (cartesian
     # product) × seeds trains as lanes of one program (python -m swim_jax.sweep); empty = no sweep
     sweep: Mapping[str, tuple[float, ...]] = field(default_factory=dict)
@@ -287,6 +293,7 @@ def validate(cfg: Config) -> Config:
         "eval_episodes": cfg.eval_episodes, "replay_size": cfg.replay_size,
         "keep_checkpoints": cfg.keep_checkpoints, "env.max_episode_steps": cfg.env.max_episode_steps,
         "agent.batch_size": cfg.agent.batch_size, "agent.policy_freq": cfg.agent.policy_freq,
+        "progress_steps": cfg.progress_steps,
     }
     for k, v in positive.items():
         if v < 1:
@@ -365,3 +372,9 @@ def resolve(config: str | None, overrides: list[str], config_dir: str = CONFIG_D
 def dump(cfg: Config) -> str:
     """The resolved config as YAML (round-trips through ``from_dict``)."""
     return yaml.safe_dump(to_dict(cfg), sort_keys=False)
+
+
+def steps_per_call(cfg: Config) -> int:
+    """Env steps per call of the compiled chunk: ``progress_steps`` when it divides ``eval_freq``,
+    else ``eval_freq`` (one call per evaluation)."""
+    return cfg.progress_steps if cfg.eval_freq % cfg.progress_steps == 0 else cfg.eval_freq

@@ -107,7 +107,7 @@ class Programs:
     eval_env: object
     agent: object
     init_fn: object  # (base_seed uint32, seed_ids int32[L][, hparams {path: [L]}]) -> TrainState[L]
-    chunk_fn: object  # (TrainState[L], t0 int32[, hparams]) -> TrainState[L]; state donated
+    chunk_fn: object  # (TrainState[L], t0 int32[, hparams]) -> TrainState[L] after steps_per_call(cfg) steps; donated
     eval_fn: object  # (actor[L], eval_keys[L], eval_index int32, random bool[, hparams]) -> returns[L, E]
 
 
@@ -152,7 +152,7 @@ def programs(cfg: Config) -> Programs:
 
     _setup_precision(cfg)
     # every config field that changes the built program (seeds only change the lane shapes)
-    key = (cfg.env, cfg.agent, cfg.learning_starts, cfg.eval_freq, cfg.eval_episodes,
+    key = (cfg.env, cfg.agent, cfg.learning_starts, cfgmod.steps_per_call(cfg), cfg.eval_episodes,
            cfg.replay_size, cfg.precision, cfg.matmul_dtype, cfg.matmul_precision)
     if key not in _PROGRAMS:
         env, eval_env, agent = build(cfg)
@@ -160,7 +160,7 @@ def programs(cfg: Config) -> Programs:
             return jax.vmap(lambda i, h: loop.init_state(agent, env, cfg.replay_size, base, i, h))(seed_ids, hparams)
 
         init_fn = jax.jit(init_lanes)
-        chunk_fn = jax.jit(loop.make_chunk_fn(agent, env, cfg.learning_starts, cfg.eval_freq),
+        chunk_fn = jax.jit(loop.make_chunk_fn(agent, env, cfg.learning_starts, cfgmod.steps_per_call(cfg)),
                            donate_argnums=0)
         eval_fn = jax.jit(loop.make_eval_fn(agent, eval_env, cfg.eval_episodes, cfg.env.max_episode_steps))
         _PROGRAMS[key] = Programs(env, eval_env, agent, init_fn, chunk_fn, eval_fn)
@@ -230,9 +230,12 @@ def _first_bad(bad_step: np.ndarray):
 # the run
 # ------------------------------------------------------------------------------------------------
 
-def run(cfg: Config, run_dir: str, resume: bool = False, log: Callable[[str], None] = print) -> RunResult:
+def run(cfg: Config, run_dir: str, resume: bool = False, log: Callable[[str], None] = print,
+        status: Callable[[str], None] | None = None) -> RunResult:
     """Train all seeds of ``cfg`` writing into ``run_dir`` (created); continue from the newest
     checkpoint there when ``resume``. Raises NonFiniteError on NaN/inf (no checkpoint written).
+    ``log`` gets one line per evaluation chunk; ``status`` (if given) what happens before and
+    between them (building, compiling, in-chunk progress), each with the elapsed time.
 
     Sets ``jax_enable_x64`` for the run (float64 iff ``precision=float64``) and restores the
     previous value when it returns, so in-process callers (tests) keep their own setting."""
@@ -242,12 +245,37 @@ def run(cfg: Config, run_dir: str, resume: bool = False, log: Callable[[str], No
         set_host_devices(cfg.host_devices)
     import jax
 
+    if cfg.compilation_cache:
+        use_compilation_cache()
     previous_x64 = bool(jax.config.jax_enable_x64)
+    t_start = time.time()
+    say = (lambda m: status(f"[{_fmt_time(time.time() - t_start)}] {m}")) if status else (lambda m: None)
     try:
         with jax.default_matmul_precision(cfg.matmul_precision):  # traced (compiled) under it
-            return _run(cfg, run_dir, resume, log)
+            return _run(cfg, run_dir, resume, log, say)
     finally:
         jax.config.update("jax_enable_x64", previous_x64)
+
+
+def compilation_cache_dir() -> str:
+    """``$XDG_CACHE_HOME/swim-jax/xla`` (default ``~/.cache/swim-jax/xla``)."""
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return os.path.join(base, "swim-jax", "xla")
+
+
+def use_compilation_cache() -> str | None:
+    """Turn on JAX's persistent compilation cache in :func:`compilation_cache_dir` unless
+    ``SWIM_JAX_NO_COMPILATION_CACHE`` is set or a cache folder is already configured (e.g. by
+    ``JAX_COMPILATION_CACHE_DIR``); returns the folder in use. Programs with host callbacks (the
+    native physics backend) are not cached by JAX; they compile in seconds."""
+    import jax
+
+    if os.environ.get("SWIM_JAX_NO_COMPILATION_CACHE"):
+        return None
+    if not jax.config.jax_compilation_cache_dir:
+        jax.config.update("jax_compilation_cache_dir", compilation_cache_dir())
+        jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
+    return jax.config.jax_compilation_cache_dir
 
 
 def _backends_started() -> bool:
@@ -256,7 +284,8 @@ def _backends_started() -> bool:
     return bool(xla_bridge._backends)
 
 
-def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None]) -> RunResult:
+def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
+         say: Callable[[str], None]) -> RunResult:
     import jax
     import jax.numpy as jnp
 
@@ -265,6 +294,8 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None]) ->
     from swim_jax.checkpoint import Checkpointer
 
     t_start = time.time()
+    say(f"building {cfg.env.id} ({cfg.env.backend} physics, {cfg.precision}) and the TD3 program for "
+        f"{num_lanes(cfg)} lanes")
     prog = programs(cfg)
     os.makedirs(run_dir, exist_ok=True)
     points = cfgmod.sweep_points(cfg)
@@ -345,6 +376,7 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None]) ->
             if os.path.exists(os.path.join(out_dir, learned_params.FILENAME)):
                 os.remove(os.path.join(out_dir, learned_params.FILENAME))
         states = place(init_fn(base_seed, seed_ids, *sweep_args), sharding)
+        say(f"compiling the evaluation program; evaluating the initial policies ({cfg.eval_episodes} episodes per lane)")
         evaluate(states, 0)
         if resume:
             log(f"no checkpoint in {run_dir}; starting from step 0")
@@ -354,8 +386,10 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None]) ->
     loop_walls: list[float] = []  # whole chunk iterations (train + eval + checkpoint) for the ETA
     for c in range(start_chunk, n_chunks):
         t0 = time.time()
-        # re-placing keeps the input sharding identical every chunk (no recompilation)
-        states = place(chunk_fn(states, jnp.asarray(c * cfg.eval_freq, jnp.int32), *sweep_args), sharding)
+        if c == start_chunk:
+            say(f"compiling the training program and running its first {cfg.eval_freq} steps "
+                f"(compiles take seconds to minutes on a CPU; cached for the next run)")
+        states = _train_chunk(cfg, chunk_fn, states, c, sweep_args, sharding, say)
         bad = np.asarray(states.bad_step)
         dt = time.time() - t0
         if first_chunk_time is None:
@@ -410,6 +444,34 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None]) ->
             json.dump(timing, f, indent=2)
     ckpt.close()
     return RunResult(run_dir, evals[:, : P * S], final_actor, states, chunk_fn, eval_fn, timing)
+
+
+PROGRESS_EVERY_S = 30.0
+
+
+def _train_chunk(cfg: Config, chunk_fn, states, c: int, sweep_args, sharding, say):
+    """Chunk ``c`` (``eval_freq`` steps) as calls of ``steps_per_call(cfg)`` steps each; between
+    calls, at most every ``PROGRESS_EVERY_S`` seconds, ``say`` gets the step, env-steps/s and the
+    chunk's ETA. Re-placing keeps the input sharding identical every call (no recompilation)."""
+    import jax.numpy as jnp
+
+    from swim_jax.sharding import place
+
+    per_call = cfgmod.steps_per_call(cfg)
+    calls = cfg.eval_freq // per_call
+    t0 = last = time.time()
+    for j in range(calls):
+        t = c * cfg.eval_freq + j * per_call
+        states = place(chunk_fn(states, jnp.asarray(t, jnp.int32), *sweep_args), sharding)
+        if j + 1 < calls and time.time() - last >= PROGRESS_EVERY_S:
+            np.asarray(states.bad_step)  # wait for the call (cheap: a few ints)
+            now = time.time()
+            done = (j + 1) * per_call
+            rate = done / (now - t0)
+            say(f"step {t + per_call}/{cfg.total_steps}: {rate * cfg.seeds * len(cfgmod.sweep_points(cfg)):.0f} env-steps/s in this chunk, "
+                f"evaluation in {_fmt_time((cfg.eval_freq - done) / rate)}")
+            last = now
+    return states
 
 
 def _point_outputs(cfg: Config, run_dir: str, points) -> list[tuple[str, Config]]:
@@ -509,7 +571,8 @@ def main(argv: list[str] | None = None, require_sweep: bool = False) -> int:
     run_dir = resume if resume else new_run_dir(cfg)
     print(f"run dir: {run_dir}", flush=True)
     try:
-        res = run(cfg, run_dir, resume=resume is not None, log=lambda s: print(s, flush=True))
+        res = run(cfg, run_dir, resume=resume is not None, log=lambda s: print(s, flush=True),
+                  status=lambda s: print(s, flush=True))
     except NonFiniteError as e:
         print(f"error: {e}", file=sys.stderr, flush=True)
         return 3

@@ -99,6 +99,19 @@ def test_no_recompilation_after_first_chunk(vmapped):
     assert vmapped.timing["chunk_compiles"] == 1
 
 
+def test_a_chunk_split_into_calls_with_progress_lines_changes_nothing(vmapped, tmp_path, monkeypatch):
+    """progress_steps=500 runs each 1000-step chunk as two calls of the compiled program with a
+    progress line between them: the same evaluations, bit for bit, as one call per chunk."""
+    monkeypatch.setattr(train, "PROGRESS_EVERY_S", 0.0)
+    status: list[str] = []
+    res = train.run(tiny("progress_steps=500"), str(tmp_path / "run"), log=lambda s: None, status=status.append)
+    np.testing.assert_array_equal(res.evaluations, vmapped.evaluations)
+    progress = [l for l in status if "env-steps/s in this chunk" in l]
+    assert [l.split("] ", 1)[1].split(":")[0] for l in progress] == [f"step {s}/4000" for s in (500, 1500, 2500, 3500)]
+    assert any("compiling the training program" in l for l in status)
+    assert res.chunk_fn._cache_size() == 1
+
+
 def test_tiny_run_beats_random_policy_on_every_seed(vmapped):
     """Final deterministic-policy return > the uniform-random policy's mean return, per seed
     (random baseline from the same compiled evaluation with the same keys, 5 episodes × 4 indices)."""

@@ -1,0 +1,316 @@
+"""Peer throughput benchmark: reference TD3 programs run the way a user runs them vs our program.
+
+Set-up (once; the peers' packages stay OUT of the project's dependencies, in their own venv):
+
+    python3 -m venv ~/peers-venv
+    ~/peers-venv/bin/pip install -c requirements.lock "gymnasium[mujoco]" jax flax optax \
+        && ~/peers-venv/bin/pip install torch==2.13.0
+
+(torch is installed in a second, unconstrained step: torch → sympy needs mpmath < 1.4, which conflicts
+with the lock's mpmath pin, so ``pip install torch==2.13.0 -c requirements.lock ...`` in one command
+is unsatisfiable. The first step pins gymnasium/mujoco/jax/flax/optax to the project's versions.)
+
+Run (on an otherwise idle machine):
+
+    python tools/bench_peers.py --envs HalfCheetah-v5,Hopper-v5,Walker2d-v5,Swimmer-v5 --steps 1000 \
+        --rounds 3 --lanes 5 --peer-python ~/peers-venv/bin/python --out runs/bench
+
+Method. A user running S seeds of a reference implementation on a P-core machine runs one process
+per seed, P at a time, each single-threaded. So each peer is measured as P concurrent single-threaded
+processes (``tools/peers_td3.py``; P = ``--procs``, default ``os.cpu_count()``; seeds 0..P-1), and
+its throughput is the AGGREGATE rate, the sum over the P processes of their env-steps/s in the
+learning phase (one env step + one training iteration per step). The processes first warm up
+(``--warmup`` random steps filling the replay buffer, 50 untimed learning steps for JIT / allocator
+warm-up), then wait at a barrier so that their ``--steps`` timed steps run at the same time. The
+peers are
+
+* ``pytorch``: Fujimoto et al.'s original TD3 (the transcription in tools/bench_pytorch_td3.py),
+* ``cleanrl``: a cleanrl-style JAX TD3 (td3_continuous_action_jax.py) on Gymnasium's own env,
+
+both run with ``--peer-python`` (a Python that has torch, jax, flax, optax, gymnasium[mujoco]).
+
+Ours is ONE process as our users run it (JAX's default threading, all cores): the project's own
+whole-program benchmark ``python -m swim_jax.bench train`` for the env's ``*_relu`` config with
+``--lanes`` lanes (seeds of one vmapped program, every step an update), ``--chunk-steps`` = ``--steps``,
+timed for both env backends (MJX, the default, and ``env.backend=mujoco``); its env-steps/s count
+all lanes. Ours runs with this script's own Python (``sys.executable``).
+
+For each env, each of ``--rounds`` rounds runs (a) the pytorch peer, (b) the cleanrl peer, (c) ours,
+one after the other, the order rotated from round to round so slow drifts of the machine (heat,
+background load) do not favour one program. Reported per env and program: the median over rounds of
+the aggregate env-steps/s, its min–max, and for ours the ratio ours / best peer (medians). The JSON
+written to ``<out>/peers-<UTC stamp>.json`` has every raw number (each process's JSON line, each of
+our bench runs' JSON), the CPU model (lscpu), date and command line. Also recorded per peer run: the
+wall-clock aggregate P·steps / (last end − first start), the overlap of the P timed windows and the
+CPU time per wall second of each process (≈ 1 for a really single-threaded process).
+
+Bad input (unknown env, a non-positive number, a missing --peer-python or one lacking the peers'
+packages): one line on stderr naming what is valid, exit status 2, nothing written.
+"""
+
+from __future__ import annotations
+
+import argparse
+import glob
+import json
+import os
+import shlex
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+TOOLS = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(TOOLS)
+if TOOLS not in sys.path:
+    sys.path.insert(0, TOOLS)
+from bench_pytorch_td3 import CONFIGS  # noqa: E402  env id → our *_relu config
+
+WORKER = os.path.join(TOOLS, "peers_td3.py")
+PEERS = ("pytorch", "cleanrl")
+PROGRAMS = ("pytorch", "cleanrl", "ours")
+LABELS = {"pytorch": "PyTorch TD3 (Fujimoto, original)", "cleanrl": "cleanrl-style JAX TD3"}
+PEER_MODULES = ("torch", "jax", "flax", "optax", "gymnasium", "mujoco")
+SINGLE_THREAD_ENV = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
+
+
+class BadInput(Exception):
+    """A user error: reported as one line on stderr with exit status 2."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse whose errors are one line on stderr and exit status 2."""
+
+    def error(self, message):
+        print(f"bench_peers.py: error: {message}", file=sys.stderr)
+        sys.exit(2)
+
+
+def parse_args(argv=None) -> argparse.Namespace:
+    """The command line; numbers and envs are checked by :func:`validate`."""
+    p = _Parser(description=__doc__.split("\n")[0])
+    p.add_argument("--envs", default="HalfCheetah-v5,Hopper-v5,Walker2d-v5,Swimmer-v5",
+                   help=f"comma-separated env ids; valid: {', '.join(CONFIGS)}")
+    p.add_argument("--steps", default="1000", help="timed learning-phase steps per process / chunk (default 1000)")
+    p.add_argument("--rounds", default="3", help="rounds per env, program order rotated (default 3)")
+    p.add_argument("--lanes", default="5", help="lanes of our program (default 5)")
+    p.add_argument("--procs", default=str(os.cpu_count() or 1),
+                   help="concurrent single-threaded processes per peer (default os.cpu_count())")
+    p.add_argument("--warmup", default="25000",
+                   help="uniform-random steps filling each peer's buffer first (default 25000, as both originals)")
+    p.add_argument("--peer-python", default=sys.executable,
+                   help="Python with torch, jax, flax, optax, gymnasium[mujoco] for the peers (default this one)")
+    p.add_argument("--out", default=os.path.join("runs", "bench"), help="folder for the JSON (default runs/bench)")
+    return p.parse_args(argv)
+
+
+def validate(args: argparse.Namespace) -> dict:
+    """Check the command line; return the settings, or raise BadInput with one line naming what is valid."""
+    envs = [e.strip() for e in args.envs.split(",") if e.strip()]
+    unknown = [e for e in envs if e not in CONFIGS]
+    if not envs or unknown:
+        raise BadInput(f"unknown env {', '.join(unknown) or repr(args.envs)}; valid: {', '.join(CONFIGS)}")
+    numbers = {}
+    for name in ("steps", "rounds", "lanes", "procs", "warmup"):
+        text = getattr(args, name)
+        try:
+            value = int(text)
+        except ValueError:
+            value = 0
+        if value < 1:
+            raise BadInput(f"--{name} {text!r}: expected a positive integer (>= 1)")
+        numbers[name] = value
+    peer_python = args.peer_python
+    if not (os.path.isfile(peer_python) and os.access(peer_python, os.X_OK)):
+        raise BadInput(f"--peer-python {peer_python!r} is not an executable file; expected a Python with "
+                       f"{', '.join(PEER_MODULES)} (see this script's docstring for the peers venv)")
+    check = subprocess.run([peer_python, "-c", f"import {', '.join(PEER_MODULES)}"], capture_output=True, text=True)
+    if check.returncode != 0:
+        last = (check.stderr.strip().splitlines() or ["?"])[-1]
+        raise BadInput(f"--peer-python {peer_python!r} lacks the peers' packages ({last}); expected a Python with "
+                       f"{', '.join(PEER_MODULES)} (see this script's docstring for the peers venv)")
+    return {"envs": envs, **numbers, "peer_python": peer_python, "out": args.out}
+
+
+def _tail(path: str, n: int = 15) -> str:
+    """The last n lines of a text file (a failed subprocess's stderr)."""
+    with open(path, errors="replace") as f:
+        return "\n".join(f.read().splitlines()[-n:])
+
+
+def run_peer(impl: str, env_id: str, s: dict) -> dict:
+    """Run ``s['procs']`` concurrent single-threaded worker processes of one peer; their aggregate rate.
+
+    Each worker warms up on its own, reports ``ready``, and all are released together (a line on
+    their stdin) so the timed windows coincide. Returns the processes' JSON lines and
+    ``env_steps_per_s`` = the sum of their rates, plus the wall-clock aggregate and window overlap.
+    """
+    env = {**os.environ, **SINGLE_THREAD_ENV}
+    procs = []
+    with tempfile.TemporaryDirectory(prefix="peers-") as tmp:
+        for seed in range(s["procs"]):
+            err = open(os.path.join(tmp, f"stderr-{seed}.txt"), "w")
+            cmd = [s["peer_python"], WORKER, "--impl", impl, "--env", env_id, "--steps", str(s["steps"]),
+                   "--warmup", str(s["warmup"]), "--seed", str(seed), "--sync"]
+            procs.append((subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=err,
+                                           text=True, cwd=ROOT, env=env), err))
+        try:
+            for p, err in procs:  # barrier: every process warmed up and compiled
+                if p.stdout.readline().strip() != "ready":
+                    p.wait()
+                    raise RuntimeError(f"{impl} worker failed before timing (exit {p.returncode}):\n{_tail(err.name)}")
+            for p, _ in procs:
+                p.stdin.write("go\n")
+                p.stdin.flush()
+            runs = []
+            for p, err in procs:
+                out, _ = p.communicate()
+                err.close()
+                lines = [ln for ln in out.splitlines() if ln.strip()]
+                if p.returncode != 0 or not lines:
+                    raise RuntimeError(f"{impl} worker failed (exit {p.returncode}):\n{_tail(err.name)}")
+                runs.append(json.loads(lines[-1]))
+        finally:
+            for p, err in procs:
+                if p.poll() is None:
+                    p.kill()  # only our own workers, by handle
+                    p.wait()
+                err.close()
+    first, last = min(r["t_start"] for r in runs), max(r["t_end"] for r in runs)
+    common = min(r["t_end"] for r in runs) - max(r["t_start"] for r in runs)
+    return {
+        "program": impl, "procs": len(runs),
+        "env_steps_per_s": sum(r["env_steps_per_s"] for r in runs),
+        "wall_env_steps_per_s": sum(r["steps"] for r in runs) / (last - first),
+        "overlap_fraction": max(common, 0.0) / (last - first),
+        "cpu_per_wall": [r["cpu_seconds"] / r["seconds"] for r in runs],
+        "runs": runs,
+    }
+
+
+def run_ours(env_id: str, s: dict) -> dict:
+    """Run our whole-program benchmark once (both env backends); one row per backend.
+
+    ``python -m swim_jax.bench train --config <env>_relu --lanes L --chunk-steps N --repeats 1
+    --variant env.backend=mujoco --out <tmp>`` with this script's Python, JAX's default threading;
+    returns {key: {"env_steps_per_s", "label"}} and the JSON that benchmark wrote.
+    """
+    with tempfile.TemporaryDirectory(prefix="ours-") as tmp:
+        cmd = [sys.executable, "-m", "swim_jax.bench", "train", "--config", CONFIGS[env_id],
+               "--lanes", str(s["lanes"]), "--chunk-steps", str(s["steps"]), "--repeats", "1",
+               "--variant", "env.backend=mujoco", "--out", tmp]
+        proc = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
+        files = sorted(glob.glob(os.path.join(tmp, "train-*.json")))
+        if proc.returncode != 0 or not files:
+            raise RuntimeError(f"our benchmark failed (exit {proc.returncode}): {shlex.join(cmd)}\n"
+                               + "\n".join(proc.stderr.strip().splitlines()[-15:]))
+        with open(files[-1]) as f:
+            res = json.load(f)
+    rows = {}
+    for row in res["rows"]:
+        if row["lanes"] != s["lanes"]:
+            continue
+        backend = "mujoco" if "env.backend=mujoco" in (row.get("variant") or "") else "mjx"
+        key = f"ours-{backend}" + (f"-{row['devices']}dev" if row["devices"] > 1 else "")
+        label = (f"swim-jax, {s['lanes']} lanes, {'native MuJoCo' if backend == 'mujoco' else 'MJX (default)'}"
+                 + (f", {row['devices']} devices" if row["devices"] > 1 else ""))
+        rows[key] = {"env_steps_per_s": row["env_steps_per_s"], "label": label}
+    return {"program": "ours", "command": cmd, "rows": rows, "bench_json": res}
+
+
+def cpu_model() -> str:
+    """The CPU's model name as lscpu reports it (falling back to /proc/cpuinfo)."""
+    try:
+        out = subprocess.run(["lscpu"], capture_output=True, text=True).stdout
+        for line in out.splitlines():
+            if line.startswith("Model name:"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return "unknown"
+
+
+def bench_env(env_id: str, s: dict, log=print) -> dict:
+    """All rounds for one env, program order rotated per round; raw results and per-program rates."""
+    rounds, rates, labels = [], {}, {}
+    for r in range(s["rounds"]):
+        order = PROGRAMS[r % 3:] + PROGRAMS[:r % 3]
+        this = {"round": r, "order": list(order)}
+        for prog in order:
+            tag = f"[{env_id} round {r + 1}/{s['rounds']}]"
+            if prog in PEERS:
+                res = run_peer(prog, env_id, s)
+                rates.setdefault(prog, []).append(res["env_steps_per_s"])
+                labels[prog] = f"{LABELS[prog]}, {s['procs']} procs × 1 thread"
+                log(f"{tag} {prog}: {res['env_steps_per_s']:.1f} env-steps/s summed over {res['procs']} processes "
+                    f"(wall-clock {res['wall_env_steps_per_s']:.1f}, overlap {res['overlap_fraction']:.2f}, "
+                    f"CPU/wall {', '.join(f'{c:.2f}' for c in res['cpu_per_wall'])})")
+            else:
+                res = run_ours(env_id, s)
+                for key, row in res["rows"].items():
+                    rates.setdefault(key, []).append(row["env_steps_per_s"])
+                    labels[key] = row["label"]
+                    log(f"{tag} {key}: {row['env_steps_per_s']:.1f} env-steps/s ({s['lanes']} lanes)")
+            this[prog] = res
+        rounds.append(this)
+    summary = {k: {"label": labels[k], "median": statistics.median(v), "min": min(v), "max": max(v), "values": v}
+               for k, v in rates.items()}
+    best_peer = max((summary[p]["median"] for p in PEERS if p in summary), default=None)
+    for k, v in summary.items():
+        v["ratio_vs_best_peer"] = (v["median"] / best_peer) if (best_peer and k not in PEERS) else None
+    return {"rounds": rounds, "summary": summary, "best_peer_median": best_peer}
+
+
+def markdown(env_id: str, res: dict, s: dict) -> str:
+    """One env's Markdown table: program, env-steps/s median (min–max), ratio ours / best peer."""
+    lines = [f"**{env_id}** — learning phase, {s['steps']} timed steps, {s['rounds']} round(s), "
+             f"medians (min–max) of aggregate env-steps/s",
+             "", "| program | env-steps/s | ratio ours / best peer |", "|---|---|---|"]
+    for key, v in res["summary"].items():
+        ratio = "—" if v["ratio_vs_best_peer"] is None else f"{v['ratio_vs_best_peer']:.2f}×"
+        lines.append(f"| {v['label']} | {v['median']:.0f} ({v['min']:.0f}–{v['max']:.0f}) | {ratio} |")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    """Validate, benchmark every env, print the tables, write the JSON."""
+    args = parse_args(argv)
+    try:
+        s = validate(args)
+    except BadInput as e:
+        print(f"bench_peers.py: error: {e}", file=sys.stderr)
+        return 2
+    started = time.gmtime()
+    results = {}
+    try:
+        for env_id in s["envs"]:
+            results[env_id] = bench_env(env_id, s)
+            print("\n" + markdown(env_id, results[env_id], s) + "\n", flush=True)
+    except RuntimeError as e:
+        print(f"bench_peers.py: {e}", file=sys.stderr)
+        return 1
+    doc = {
+        "benchmark": "peers", "date": time.strftime("%Y-%m-%dT%H:%M:%SZ", started),
+        "finished": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+        "command": shlex.join([sys.executable, *sys.argv] if argv is None else [sys.executable, __file__, *argv]),
+        "cpu_model": cpu_model(), "cpu_count": os.cpu_count(), "python": sys.executable,
+        "settings": s, "results": results,
+    }
+    os.makedirs(s["out"], exist_ok=True)
+    path = os.path.join(s["out"], f"peers-{time.strftime('%Y%m%d-%H%M%S', started)}.json")
+    with open(path, "w") as f:
+        json.dump(doc, f, indent=1)
+    print(f"wrote {path}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
