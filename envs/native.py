@@ -41,7 +41,9 @@ class NativeData:
 
     ``exact``: float64 bits of concat(qpos, qvel, qacc_warmstart) as uint32 (what continues the
     episode); ``qpos``, ``qvel``, ``xpos`` [nbody, 3] and ``cfrc_ext`` [nbody, 6] (zeros unless
-    the task needs contact forces): the same numbers in the env dtype, for the task's terms."""
+    the task needs contact forces): the same numbers in the env dtype, for the task's terms.
+    These are read-only views: replacing ``qpos`` does not move the physics (``exact`` does);
+    set a state with ``env.physics_reset(qpos, qvel)`` or :meth:`NativePhysics.exact_state`."""
 
     exact: jax.Array
     qpos: jax.Array

@@ -97,13 +97,44 @@ def test_truncation_and_autoreset_keep_final_obs(short_hopper):
 
 
 def test_termination_is_not_truncation(short_hopper):
+    """Lane 0 pushed past the angle limit terminates (not truncated) and restarts; lane 1 goes on.
+    Batch 2, as the truncation test: the same compiled step serves both."""
     env, reset, step = short_hopper
-    state = reset(jax.random.split(jax.random.PRNGKey(2), 1))
-    # push the hopper's angle out of (-0.2, 0.2): the next step terminates
+    state = reset(jax.random.split(jax.random.PRNGKey(2), 2))
+    # push lane 0's angle out of (-0.2, 0.2): its next step terminates
     data = state.pipeline_state
-    state = state.replace(pipeline_state=data.replace(qpos=data.qpos.at[:, 2].set(0.5)))
-    state, final_obs = step(state, jnp.zeros((1, env.action_size)),
-                            jax.random.split(jax.random.PRNGKey(3), 1))
+    state = state.replace(pipeline_state=data.replace(qpos=data.qpos.at[0, 2].set(0.5)))
+    state, final_obs = step(state, jnp.zeros((2, env.action_size)),
+                            jax.random.split(jax.random.PRNGKey(3), 2))
     assert float(state.done[0]) == 1.0 and float(state.info["truncation"][0]) == 0.0
     assert float(final_obs[0, 1]) > 0.2  # the true terminal observation (angle) is kept
     assert abs(float(state.obs[0, 1])) <= 5e-3  # continued from a fresh reset
+    assert float(state.done[1]) == 0.0 and float(state.info["steps"][1]) == 1.0
+
+
+def test_step_autoreset_lanes_equals_step_autoreset_lane_by_lane():
+    """envs.step_autoreset_lanes (resets computed only when some lane finished) gives exactly the
+    vmapped step_autoreset over 8 steps of 3 lanes with a 3-step limit and one lane terminating;
+    native backend (compiles in seconds; the auto-reset logic is backend-independent)."""
+    env = envs.make("Hopper-v5", max_episode_steps=3, backend="mujoco")
+    state = jax.jit(jax.vmap(env.reset))(jax.random.split(jax.random.PRNGKey(0), 3))
+    lanes = jax.jit(lambda s, a, k: envs.step_autoreset_lanes(env, s, a, k))
+    one_by_one = jax.jit(jax.vmap(lambda s, a, k: envs.step_autoreset(env, s, a, k)))
+    a_keys = jax.random.split(jax.random.PRNGKey(1), 8)
+    r_keys = jax.random.split(jax.random.PRNGKey(2), 24).reshape(8, 3, 2)
+    ours, ref = state, state
+    dones = []
+    for t in range(8):
+        actions = jax.random.uniform(a_keys[t], (3, env.action_size), minval=-1.0, maxval=1.0)
+        if t == 0:  # lane 2 falls at once: a termination before the time limit
+            push = lambda s: s.replace(pipeline_state=jax.vmap(env.physics_reset)(
+                s.pipeline_state.qpos.at[2, 2].set(0.5), s.pipeline_state.qvel))
+            ours, ref = push(ours), push(ref)
+        ours, fo = lanes(ours, actions, r_keys[t])
+        ref, fr = one_by_one(ref, actions, r_keys[t])
+        for x, y in zip(jax.tree.leaves((ours, fo)), jax.tree.leaves((ref, fr))):
+            np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
+        dones.append(np.asarray(ours.done))
+    dones = np.array(dones)
+    assert dones[0, 2] == 1 and dones[0, :2].sum() == 0  # steps with and without resets were taken
+    assert (dones.sum(axis=1) == 0).any() and dones[2].sum() >= 2
