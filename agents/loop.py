@@ -83,6 +83,29 @@ def _all_finite(tree) -> Array:
     return jnp.all(jnp.stack([jnp.all(jnp.isfinite(x)) for x in leaves]))
 
 
+class ChunkMetrics(NamedTuple):
+    """Per-lane learning diagnostics of one call of the chunk (each field [L]): TD3 updates made,
+    their mean critic loss L_Q and mean Q₁ on the sampled batches, actor updates made and their
+    mean actor loss L_μ (nan where a count is 0)."""
+
+    updates: Array
+    critic_loss: Array
+    q_mean: Array
+    actor_updates: Array
+    actor_loss: Array
+
+
+def summarize_updates(m: UpdateMetrics, updated: Array) -> ChunkMetrics:
+    """:class:`ChunkMetrics` from per-step metrics stacked on axis 0 ([T, L]) and the per-step
+    "an update ran" flags ([T])."""
+    did = updated[:, None] & jnp.ones_like(m.actor_updated)
+    act = did & m.actor_updated
+    n, na = did.sum(0), act.sum(0)
+    mean = lambda x, w, k: jnp.where(k > 0, jnp.where(w, x, 0).sum(0) / jnp.maximum(k, 1), jnp.nan)
+    return ChunkMetrics(n.astype(jnp.int32), mean(m.critic_loss, did, n), mean(m.q_mean, did, n),
+                        na.astype(jnp.int32), mean(m.actor_loss, act, na))
+
+
 def _zero_metrics(dt) -> UpdateMetrics:
     z = jnp.zeros((), dt)
     return UpdateMetrics(z, z, z, jnp.zeros((), jnp.bool_))
@@ -130,9 +153,10 @@ def env_step_lanes(agent: TD3, env, learning_starts: int, states: TrainState, t:
 
 
 def update_step(agent: TD3, learning_starts: int, s: TrainState, k_update: Array, t: Array,
-                hparams=None) -> TrainState:
+                hparams=None) -> tuple[TrainState, UpdateMetrics]:
     """One lane's TD3 update at global step t (from ``learning_starts`` on; the actor on
-    iterations ``t - learning_starts + 1`` divisible by policy_freq) and the NaN/inf watch."""
+    iterations ``t - learning_starts + 1`` divisible by policy_freq), the NaN/inf watch, and the
+    update's metrics (zeros when no update ran)."""
     agent = agent.with_hparams(hparams)
     k_sample, k_td3 = jax.random.split(k_update)
     it = t - learning_starts + 1
@@ -152,29 +176,32 @@ def update_step(agent: TD3, learning_starts: int, s: TrainState, k_update: Array
         _all_finite(agent_state.critic),
     ])
     bad_step = jnp.where((s.bad_step < 0) & ~ok, t.astype(jnp.int32), s.bad_step)
-    return s._replace(agent=agent_state, bad_step=bad_step)
+    return s._replace(agent=agent_state, bad_step=bad_step), m
 
 
 def train_step_lanes(agent: TD3, env, learning_starts: int, states: TrainState, t: Array,
-                     hparams=None) -> TrainState:
-    """One env step and (from ``learning_starts`` on) one TD3 update for every lane at step t.
-    ``hparams``: per-lane sweep values ``{path: [L]}`` (see ``TD3.with_hparams``), None for none."""
+                     hparams=None) -> tuple[TrainState, UpdateMetrics]:
+    """One env step and (from ``learning_starts`` on) one TD3 update for every lane at step t;
+    returns the new states and each lane's update metrics. ``hparams``: per-lane sweep values
+    ``{path: [L]}`` (see ``TD3.with_hparams``), None for none."""
     states, k_update = env_step_lanes(agent, env, learning_starts, states, t, hparams)
     return jax.vmap(lambda s, k, h: update_step(agent, learning_starts, s, k, t, h))(states, k_update, hparams)
 
 
 def make_chunk_fn(agent: TD3, env, learning_starts: int, num_steps: int):
-    """``chunk(states, t0, hparams) -> states``: ``num_steps`` env steps t0 … t0+num_steps−1 for all
-    lanes (states batched on axis 0; t0 an int32 scalar shared by the lanes; ``hparams`` a dict of
-    per-lane sweep values ``{path: [L]}``, None for a plain multi-seed run). Jit it once."""
+    """``chunk(states, t0, hparams) -> (states, ChunkMetrics)``: ``num_steps`` env steps
+    t0 … t0+num_steps−1 for all lanes (states batched on axis 0; t0 an int32 scalar shared by the
+    lanes; ``hparams`` a dict of per-lane sweep values ``{path: [L]}``, None for a plain
+    multi-seed run) and the lanes' learning diagnostics over those steps. Jit it once."""
 
-    def chunk(states: TrainState, t0: Array, hparams=None) -> TrainState:
+    def chunk(states: TrainState, t0: Array, hparams=None) -> tuple[TrainState, ChunkMetrics]:
         def body(carry, i):
             t = (t0 + i).astype(jnp.int32)
-            return train_step_lanes(agent, env, learning_starts, carry, t, hparams), None
+            carry, m = train_step_lanes(agent, env, learning_starts, carry, t, hparams)
+            return carry, (m, t >= learning_starts)
 
-        states, _ = jax.lax.scan(body, states, jnp.arange(num_steps, dtype=jnp.int32))
-        return states
+        states, (m, updated) = jax.lax.scan(body, states, jnp.arange(num_steps, dtype=jnp.int32))
+        return states, summarize_updates(m, updated)
 
     return chunk
 

@@ -100,7 +100,7 @@ def _run_chunk(chunk_fn, states, t0: int, chunk_steps: int, per_call: int, shard
     from swim_jax.sharding import place
 
     for j in range(chunk_steps // per_call):
-        states = place(chunk_fn(states, jnp.asarray(t0 + j * per_call, jnp.int32)), sharding)
+        states = place(chunk_fn(states, jnp.asarray(t0 + j * per_call, jnp.int32))[0], sharding)
     return states
 
 

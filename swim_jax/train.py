@@ -15,6 +15,8 @@ Outputs in ``<out_dir>/<name>-<UTC timestamp>/``:
   timing.json                  wall time, env-steps/s (aggregate and per seed), compile counts
   checkpoints/<step>/          orbax: the whole training state (last ``keep_checkpoints``)
   final_policy.npz             actor parameters, leading axis = seed
+  metrics.csv                  per chunk and seed: updates, critic/actor loss, mean Q, episodes, last
+                               training episode's return (swim_jax/learning_log.py)
   activation_params.csv        learnable k/beta per layer, seed and evaluation (learnable runs)
   point.json                   sweep points only: the point's label and swept values
 
@@ -42,6 +44,7 @@ import numpy as np
 import yaml
 
 from swim_jax import config as cfgmod
+from swim_jax import learning_log
 from swim_jax.config import Config, ConfigError
 
 USAGE = (
@@ -369,12 +372,14 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
         start_chunk = step // cfg.eval_freq
         evals[:] = np.asarray(saved_evals)
         for out_dir, _ in outputs:
-            learned_params.truncate_after(os.path.join(out_dir, learned_params.FILENAME), step)
+            for name in (learned_params.FILENAME, learning_log.FILENAME):
+                learned_params.truncate_after(os.path.join(out_dir, name), step)
         log(f"resumed {run_dir} at step {step}")
     else:
-        for out_dir, _ in outputs:  # a resume without checkpoints restarts the log too
-            if os.path.exists(os.path.join(out_dir, learned_params.FILENAME)):
-                os.remove(os.path.join(out_dir, learned_params.FILENAME))
+        for out_dir, _ in outputs:  # a resume without checkpoints restarts the logs too
+            for name in (learned_params.FILENAME, learning_log.FILENAME):
+                if os.path.exists(os.path.join(out_dir, name)):
+                    os.remove(os.path.join(out_dir, name))
         states = place(init_fn(base_seed, seed_ids, *sweep_args), sharding)
         say(f"compiling the evaluation program; evaluating the initial policies ({cfg.eval_episodes} episodes per lane)")
         evaluate(states, 0)
@@ -389,7 +394,7 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
         if c == start_chunk:
             say(f"compiling the training program and running its first {cfg.eval_freq} steps "
                 f"(compiles take seconds to minutes on a CPU; cached for the next run)")
-        states = _train_chunk(cfg, chunk_fn, states, c, sweep_args, sharding, say)
+        states, chunk_metrics = _train_chunk(cfg, chunk_fn, states, c, sweep_args, sharding, say)
         bad = np.asarray(states.bad_step)
         dt = time.time() - t0
         if first_chunk_time is None:
@@ -410,13 +415,18 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
                 f"(last good checkpoint: {'none' if last is None else f'step {last}'} in {run_dir}/checkpoints)"
             )
         evaluate(states, c + 1)
+        episodes, last_return = np.asarray(states.episodes), np.asarray(states.last_return)
+        for lanes_p, (out_dir, _) in zip(point_lanes, outputs):
+            learning_log.append(os.path.join(out_dir, learning_log.FILENAME), step, seed_ids_np[lanes_p],
+                                {k: v[lanes_p] for k, v in chunk_metrics.items()}, episodes[lanes_p],
+                                last_return[lanes_p])
         ckpt.save(step, (states, jnp.asarray(evals)))
         write_all(c + 2)
         loop_walls.append(time.time() - t0)
         # recent iterations: the learning phase is much slower than the uniform-random warm-up
         typical = np.mean(loop_walls[1:][-3:]) if len(loop_walls) > 1 else loop_walls[0]
         log(_progress_line(cfg, points, step, evals[c + 1, : P * S], dt, c == start_chunk,
-                           time.time() - t_start, typical * (n_chunks - c - 1)))
+                           time.time() - t_start, typical * (n_chunks - c - 1), chunk_metrics))
 
     final_actor = _flat_params(jax.tree.map(lambda x: x[: P * S], states.agent.actor))
     for lanes_p, (out_dir, _) in zip(point_lanes, outputs):
@@ -452,7 +462,8 @@ PROGRESS_EVERY_S = 30.0
 def _train_chunk(cfg: Config, chunk_fn, states, c: int, sweep_args, sharding, say):
     """Chunk ``c`` (``eval_freq`` steps) as calls of ``steps_per_call(cfg)`` steps each; between
     calls, at most every ``PROGRESS_EVERY_S`` seconds, ``say`` gets the step, env-steps/s and the
-    chunk's ETA. Re-placing keeps the input sharding identical every call (no recompilation)."""
+    chunk's ETA. Re-placing keeps the input sharding identical every call (no recompilation).
+    Returns (states, the chunk's per-lane learning metrics, ``learning_log.combine``)."""
     import jax.numpy as jnp
 
     from swim_jax.sharding import place
@@ -460,9 +471,12 @@ def _train_chunk(cfg: Config, chunk_fn, states, c: int, sweep_args, sharding, sa
     per_call = cfgmod.steps_per_call(cfg)
     calls = cfg.eval_freq // per_call
     t0 = last = time.time()
+    metrics = []
     for j in range(calls):
         t = c * cfg.eval_freq + j * per_call
-        states = place(chunk_fn(states, jnp.asarray(t, jnp.int32), *sweep_args), sharding)
+        states, m = chunk_fn(states, jnp.asarray(t, jnp.int32), *sweep_args)
+        states = place(states, sharding)
+        metrics.append(m)
         if j + 1 < calls and time.time() - last >= PROGRESS_EVERY_S:
             np.asarray(states.bad_step)  # wait for the call (cheap: a few ints)
             now = time.time()
@@ -471,7 +485,7 @@ def _train_chunk(cfg: Config, chunk_fn, states, c: int, sweep_args, sharding, sa
             say(f"step {t + per_call}/{cfg.total_steps}: {rate * cfg.seeds * len(cfgmod.sweep_points(cfg)):.0f} env-steps/s in this chunk, "
                 f"evaluation in {_fmt_time((cfg.eval_freq - done) / rate)}")
             last = now
-    return states
+    return states, learning_log.combine(metrics)
 
 
 def _point_outputs(cfg: Config, run_dir: str, points) -> list[tuple[str, Config]]:
@@ -503,8 +517,9 @@ def write_sweep_table(run_dir: str, cfg: Config, points, evals: np.ndarray) -> N
 
 
 def _progress_line(cfg: Config, points, step: int, ev: np.ndarray, dt: float, first: bool,
-                   elapsed: float, eta: float) -> str:
-    """One line per chunk: step, throughput, eval mean ± std over seeds (per point for sweeps)."""
+                   elapsed: float, eta: float, chunk_metrics: dict | None = None) -> str:
+    """One line per chunk: step, throughput, eval mean ± std over seeds (per point for sweeps),
+    and, once updates run, the chunk's critic loss and Q₁ averaged over the lanes."""
     S, P = cfg.seeds, len(points)
     means = ev.mean(axis=1)  # [P·S] each lane's mean episode return
     rate = cfg.eval_freq * P * S / dt
@@ -515,6 +530,9 @@ def _progress_line(cfg: Config, points, step: int, ev: np.ndarray, dt: float, fi
     if cfg.sweep and P <= 8:
         point_means = means.reshape(P, S).mean(axis=1)
         line += " [" + ", ".join(f"{cfgmod.point_label(pt)}: {m:.0f}" for pt, m in zip(points, point_means)) + "]"
+    if chunk_metrics is not None and np.any(chunk_metrics["updates"][: P * S] > 0):
+        line += (f" | critic loss {np.nanmean(chunk_metrics['critic_loss'][: P * S]):.3g}"
+                 f", Q {np.nanmean(chunk_metrics['q_mean'][: P * S]):.3g}")
     return line + f" | elapsed {_fmt_time(elapsed)} | ETA {_fmt_time(eta)}"
 
 

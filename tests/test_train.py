@@ -112,6 +112,53 @@ def test_a_chunk_split_into_calls_with_progress_lines_changes_nothing(vmapped, t
     assert res.chunk_fn._cache_size() == 1
 
 
+def test_metrics_csv_logs_updates_losses_and_episodes_per_chunk_and_seed(vmapped):
+    """metrics.csv: 4 chunks × 2 seeds; no update in the warm-up chunk (learning_starts=1000),
+    then 1000 updates and 500 actor updates (policy_freq 2) per chunk with finite losses; the last
+    row's episode count and return are the final training state's; the progress line shows them."""
+    from swim_jax import learning_log
+
+    m = learning_log.read(os.path.join(vmapped.run_dir, learning_log.FILENAME))
+    np.testing.assert_array_equal(m["step"], np.repeat([1000, 2000, 3000, 4000], 2))
+    np.testing.assert_array_equal(m["seed"], np.tile([0, 1], 4))
+    np.testing.assert_array_equal(m["updates"], [0, 0] + [1000] * 6)
+    np.testing.assert_array_equal(m["actor_updates"], [0, 0] + [500] * 6)
+    assert np.all(np.isnan(m["critic_loss"][:2])) and np.all(np.isfinite(m["critic_loss"][2:]))
+    assert np.all(m["critic_loss"][2:] >= 0) and np.all(np.isfinite(m["actor_loss"][2:]))
+    np.testing.assert_array_equal(m["episodes"][-2:], np.asarray(vmapped.states.episodes))
+    np.testing.assert_array_equal(m["last_episode_return"][-2:],
+                                  np.asarray(vmapped.states.last_return).astype(np.float64))
+    assert "critic loss" not in vmapped.lines[0] and "critic loss" in vmapped.lines[1]
+
+
+def test_chunk_metrics_are_count_weighted_means():
+    """loop.summarize_updates and learning_log.combine against NumPy on synthetic metrics."""
+    from agents.loop import summarize_updates
+    from agents.td3 import UpdateMetrics
+    from swim_jax import learning_log
+
+    rng = np.random.default_rng(0)
+    T, L = 6, 3
+    cl, al, q = (rng.normal(size=(T, L)).astype(np.float32) for _ in range(3))
+    actor = rng.random((T, L)) < 0.5
+    updated = np.array([False, False, True, True, True, True])
+    c = summarize_updates(UpdateMetrics(jnp.asarray(cl), jnp.asarray(al), jnp.asarray(q), jnp.asarray(actor)),
+                          jnp.asarray(updated))
+    w = np.broadcast_to(updated[:, None], (T, L))
+    np.testing.assert_allclose(np.asarray(c.critic_loss), (cl * w).sum(0) / w.sum(0), rtol=1e-6)
+    aw = w & actor
+    want_al = np.where(aw.sum(0) > 0, (al * aw).sum(0) / np.maximum(aw.sum(0), 1), np.nan)
+    np.testing.assert_allclose(np.asarray(c.actor_loss), want_al, rtol=1e-6)
+    np.testing.assert_array_equal(np.asarray(c.actor_updates), aw.sum(0))
+    # two calls of 3 steps combine into the 6-step means
+    halves = [summarize_updates(UpdateMetrics(*(jnp.asarray(x[sl]) for x in (cl, al, q, actor))), jnp.asarray(updated[sl]))
+              for sl in (slice(0, 3), slice(3, 6))]
+    both = learning_log.combine(halves)
+    np.testing.assert_allclose(both["critic_loss"], np.asarray(c.critic_loss), rtol=1e-6)
+    np.testing.assert_allclose(both["actor_loss"], want_al, rtol=1e-6)
+    np.testing.assert_array_equal(both["updates"], w.sum(0))
+
+
 def test_tiny_run_beats_random_policy_on_every_seed(vmapped):
     """Final deterministic-policy return > the uniform-random policy's mean return, per seed
     (random baseline from the same compiled evaluation with the same keys, 5 episodes × 4 indices)."""
@@ -169,11 +216,11 @@ def test_nan_detection_names_seed_step_and_quantity(vmapped):
     st = jax.tree.map(jnp.copy, vmapped.states)
     critic = jax.tree.map(lambda x: x.at[1].set(jnp.nan) if x.ndim else x, st.agent.critic)
     st = st._replace(agent=st.agent._replace(critic=critic))
-    out = vmapped.chunk_fn(st, jnp.int32(4000))
+    out, metrics = vmapped.chunk_fn(st, jnp.int32(4000))
     hit = train._first_bad(np.asarray(out.bad_step))
-    assert hit == (1, 4000, "critic_loss")
+    assert hit == (1, 4000, CHECKED[0]) and CHECKED[0] == "critic_loss"
     assert np.all(np.asarray(out.bad_step)[0] == -1)
-    assert CHECKED[0] == "critic_loss"
+    assert np.isnan(np.asarray(metrics.critic_loss)[1]) and np.isfinite(np.asarray(metrics.critic_loss)[0])
 
 
 # ------------------------------------------------------------------------------------------------

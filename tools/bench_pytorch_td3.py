@@ -150,7 +150,7 @@ def main(argv=None) -> int:
                                              "replay_size=100000", "pad_single_seed=false"])
     prog = train.programs(cfg)
     st = prog.init_fn(jnp.asarray(0, jnp.uint32), jnp.arange(args.lanes, dtype=jnp.int32))
-    st = jax.block_until_ready(prog.chunk_fn(st, jnp.asarray(0, jnp.int32)))  # compile
+    st = jax.block_until_ready(prog.chunk_fn(st, jnp.asarray(0, jnp.int32))[0])  # compile
     for _ in range(50):
         torch_step()
     t_torch, t_jax = [], []
@@ -160,7 +160,7 @@ def main(argv=None) -> int:
             torch_step()
         t_torch.append(time.perf_counter() - t0)
         t0 = time.perf_counter()
-        st = jax.block_until_ready(prog.chunk_fn(st, jnp.asarray((r + 1) * args.steps, jnp.int32)))
+        st = jax.block_until_ready(prog.chunk_fn(st, jnp.asarray((r + 1) * args.steps, jnp.int32))[0])
         t_jax.append(time.perf_counter() - t0)
     torch_rate = args.steps / statistics.median(t_torch)
     jax_rate = args.steps * args.lanes / statistics.median(t_jax)
