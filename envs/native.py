@@ -74,15 +74,14 @@ class NativePhysics:
         self.dtype = jnp.dtype(dtype)
         self.nq, self.nv, self.nbody = mj_model.nq, mj_model.nv, mj_model.nbody
         self.threads = max(1, int(threads or len(os.sched_getaffinity(0))))
-        self._local = threading.local()
         self._pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
+        # one scratch MjData per block of lanes, owned here (not thread-local: XLA runs callbacks
+        # on threads whose Python state is torn down after each call, and freeing an MjData there
+        # crashed); the lock serialises concurrent callbacks (two programs running at once)
+        self._data = [mujoco.MjData(mj_model) for _ in range(self.threads)]
+        self._lock = threading.Lock()
 
     # ---------------------------------------------------------------- host side (NumPy, MuJoCo C)
-    def _mjdata(self) -> mujoco.MjData:
-        d = getattr(self._local, "data", None)
-        if d is None:
-            d = self._local.data = mujoco.MjData(self.model)
-        return d
 
     def _outputs(self, d: mujoco.MjData, out: dict, i: int) -> None:
         out["exact"][i] = np.concatenate([d.qpos, d.qvel, d.qacc_warmstart])
@@ -94,8 +93,8 @@ class NativePhysics:
                 "xpos": np.empty((n, self.nbody, 3)),
                 "cfrc_ext": np.zeros((n, self.nbody, 6))}
 
-    def _reset_lanes(self, qpos, qvel, out, lanes) -> None:
-        m, d = self.model, self._mjdata()
+    def _reset_lanes(self, qpos, qvel, out, lanes, d: mujoco.MjData) -> None:
+        m = self.model
         for i in lanes:
             mujoco.mj_resetData(m, d)
             d.qpos[:] = qpos[i]
@@ -103,8 +102,8 @@ class NativePhysics:
             mujoco.mj_forward(m, d)
             self._outputs(d, out, i)
 
-    def _step_lanes(self, exact, ctrl, out, lanes) -> None:
-        m, d = self.model, self._mjdata()
+    def _step_lanes(self, exact, ctrl, out, lanes, d: mujoco.MjData) -> None:
+        m = self.model
         nq, nv = self.nq, self.nv
         for i in lanes:
             d.qpos[:] = exact[i, :nq]
@@ -117,13 +116,16 @@ class NativePhysics:
             self._outputs(d, out, i)
 
     def _run(self, fn, n: int, *args) -> dict:
+        """``fn(*args, out, lanes, mjdata)`` over lanes 0..n-1, in blocks on the thread pool."""
         out = self._new_outputs(n)
-        if self._pool is None or n < 2:
-            fn(*args, out, range(n))
-        else:
-            blocks = [range(b, n, self.threads) for b in range(min(self.threads, n))]
-            for f in [self._pool.submit(fn, *args, out, lanes) for lanes in blocks]:
-                f.result()
+        with self._lock:
+            if self._pool is None or n < 2:
+                fn(*args, out, range(n), self._data[0])
+            else:
+                blocks = [range(b, n, self.threads) for b in range(min(self.threads, n))]
+                futures = [self._pool.submit(fn, *args, out, lanes, self._data[b]) for b, lanes in enumerate(blocks)]
+                for f in futures:
+                    f.result()
         return out
 
     def _host(self, kind: str, a: np.ndarray, b: np.ndarray):

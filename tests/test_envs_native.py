@@ -148,3 +148,14 @@ def test_reward_arithmetic_rounds_as_numpy(shape, x64):
     np.testing.assert_array_equal(np.asarray(ours[0]), ss)
     np.testing.assert_array_equal(np.asarray(ours[1]), f - 0.1 * ss)
     np.testing.assert_array_equal(np.asarray(ours[2]), f / 0.008)
+
+
+def test_a_one_lane_program_with_other_outputs_runs_repeatedly():
+    """Regression: scratch MjData kept in a threading.local was freed on XLA's callback thread
+    without a Python thread state, crashing the process (seen with one vmapped lane plus another
+    output, as the training program's init has)."""
+    env = envs.make("Hopper-v5", backend="mujoco")
+    f = jax.jit(jax.vmap(lambda k: (env.step(env.reset(k), jnp.zeros(env.action_size)), jnp.zeros((100, 11)))))
+    for seed in range(3):
+        st, _ = f(jax.random.split(jax.random.PRNGKey(seed), 1))
+        assert st.obs.shape == (1, 11) and np.all(np.isfinite(np.asarray(st.obs)))
