@@ -78,7 +78,7 @@ def replace_fields(config: "TD3Config", changes: Mapping[str, Any]) -> "TD3Confi
 
 @dataclass(frozen=True)
 class TD3Config:
-    """TD3 hyperparameters; defaults = the original TD3 code (REFERENCE.md)."""
+    """TD3 hyperparameters; defaults = the original TD3 code (github.com/sfujim/TD3, main.py / TD3.py)."""
 
     hidden: tuple[int, ...] = (256, 256)
     activation: ActivationConfig = field(default_factory=ActivationConfig)

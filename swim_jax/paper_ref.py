@@ -1,6 +1,6 @@
 """The paper's published numbers (Tables II and III) and the mapping of our env ids onto its envs.
 
-Source: ../shared/paper/REFERENCE.md (the paper: TD3, 1M steps, 5 seeds, gym -v2 MuJoCo envs,
+Source: the Swim paper (Abdool & Dear), Tables II and III (TD3, 1M steps, 5 seeds, gym -v2 MuJoCo envs,
 float64; Table III on an ARM CPU). Our runs use Gymnasium v4/v5 envs and usually smaller budgets, so
 these are side-by-side references, not like-for-like targets.
 """

@@ -4,7 +4,7 @@ Teacher forcing: Gymnasium is run for 1000 steps of random actions and 1000 step
 deterministic sine controller (resetting when it terminates); every recorded pre-step physics
 state is put into our env and stepped with the same action, all 2000 at once (one jitted vmap
 call per env). Observation, reward and terminated must match Gymnasium's outputs of that step.
-Bounds from issue 3: <= 1e-4 absolute in float32 (float64, 1e-8: test_envs_equivalence_f64.py).
+Bounds: <= 1e-4 absolute in float32 (float64, 1e-8: test_envs_equivalence_f64.py).
 
 float32 reality (docs/ENVS.md; MJX runs MuJoCo C's Newton solver, envs/mjx_solver.py): Hopper
 and Swimmer meet 1e-4 at every step; Walker2d, HalfCheetah and Ant meet it at the 99th percentile

@@ -1,4 +1,4 @@
-"""Yardstick for issue 6: the original PyTorch TD3's single-run rate vs our vmapped JAX program.
+"""Yardstick: the original PyTorch TD3's single-run rate vs our vmapped JAX program, in one process.
 
     pip install torch==2.13.0            # NOT a project dependency; CPU build
     python tools/bench_pytorch_td3.py --env HalfCheetah-v5 --lanes 5 --steps 500 --repeats 3
@@ -15,7 +15,8 @@ machine noise hits both alike; medians are reported, and the ratio
 
     JAX env-steps/s over all lanes  /  PyTorch env-steps/s of one run
 
-is issue 6's "whole-program throughput for 5 seeds ≥ 5× the original PyTorch TD3's single-run rate".
+compares one program of all seeds with ONE PyTorch run; tools/bench_peers.py compares with the way users
+run the original (one single-thread process per seed, all cores busy).
 """
 
 from __future__ import annotations

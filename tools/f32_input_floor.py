@@ -1,6 +1,6 @@
 """How close can any float32 env get to Gymnasium? Teacher-force our env in float64 from the
 recorded inputs rounded to float32 (state, warm start, action: what a float32 env is given) and
-report the observation error against Gymnasium's float64 outputs (docs/ENVS.md, issue 3).
+report the observation error against Gymnasium's float64 outputs (docs/ENVS.md, "Measured equivalence").
 
 Usage: python tools/f32_input_floor.py [ENV_ID]   (default HalfCheetah-v5; 1000 random + 1000 sine steps, seed 7)
 """
