@@ -10,12 +10,16 @@ Several folders of one (env, activation) are pooled as more seeds; all runs of o
 section (Table III). At least one RUN_DIR or one ``--bench`` is required.
 
 Writes into DIR: ``REPORT.md`` (tables, figure, statistics, verdicts, budgets), ``results.json``
-(every number in full precision), ``figure4.png`` and ``figure4.svg`` (when there are runs).
-DIR must not exist or be empty unless ``--force`` (then only those files are replaced). Everything is
-computed before anything is written; output appears atomically (temporary folder, then rename).
+(every number in full precision), ``figure4.png`` and ``figure4.svg`` (when there are runs),
+``sweep.png`` and ``sweep.svg`` (when a parameter was swept). DIR must not exist or be empty unless
+``--force``: then only those files are replaced, and those of them this report does not write (a
+sweep figure of an earlier report) are removed; other files stay. Everything is computed before
+anything is written, and the output appears all or nothing: a new DIR is a completed temporary
+folder renamed into place; in an existing DIR the old files are moved aside, the new ones moved in,
+and on any failure the old ones are put back.
 
 Exit status: 0 done; 2 bad input (missing/corrupt run folder or bench file, incompatible runs, bad
-arguments, non-empty --out without --force): one line on stderr, nothing written.
+arguments, unusable --out, non-empty --out without --force): one line on stderr, nothing written.
 """
 
 from __future__ import annotations
@@ -34,7 +38,7 @@ from swim_jax import paper_ref, stats
 from swim_jax.bench_io import BenchError, load_bench, speedup_pct
 from swim_jax.runs_io import EnvGroup, RunError, load_and_group
 
-OUTPUT_FILES = ("REPORT.md", "results.json", "figure4.png", "figure4.svg")
+OUTPUT_FILES = ("REPORT.md", "results.json", "figure4.png", "figure4.svg", "sweep.png", "sweep.svg")  # all it may write
 SCORES = ("max", "final", "auc")
 SCORE_WORDS = {
     "max": "max over evaluations of the seed's return",
@@ -226,7 +230,8 @@ def render_markdown(groups, t2, imp, comps, t3, bench_meta, score: str, n_boot: 
         L += ["## Beyond the paper: statistics per env", "",
               f"Per-seed scores: *max* = {SCORE_WORDS['max']}; *final* = {SCORE_WORDS['final']}; *auc* = "
               f"{SCORE_WORDS['auc']}. CI: 95% percentile bootstrap of the mean over seeds ({n_boot} resamples, "
-              f"numpy default_rng seed {boot_seed}, so deterministic); the difference's CI resamples both "
+              f"numpy default_rng with seed {boot_seed} for X's CI, {boot_seed + 1} for Y's CI and "
+              f"{boot_seed + 2} for the difference's, so deterministic); the difference's CI resamples both "
               "samples independently. IQM: interquartile mean over seeds (drop ⌊n/4⌋ from each end). "
               "P(X > Y): over all seed pairs, ties count ½. Welch: unequal-variance t-test, "
               "Welch–Satterthwaite df, two-sided p. The per-seed *max* is biased upwards by evaluation noise "
@@ -245,7 +250,7 @@ def render_markdown(groups, t2, imp, comps, t3, bench_meta, score: str, n_boot: 
                                  f"{c.iqm_x:.1f} / {c.iqm_y:.1f}",
                                  f"{c.diff:+.1f} [{c.diff_ci[0]:+.1f}, {c.diff_ci[1]:+.1f}]",
                                  f"{c.prob_improvement:.2f}",
-                                 "—" if w is None else f"{w.t:.2f} ({w.df:.1f})",
+                                 _welch_cell(w),
                                  "—" if w is None else stats._fmt_p(w.p_two_sided)])
         if rows:
             L += [_md_table(["env", "X vs Y", "score", "seeds X/Y", "X mean [95% CI]", "Y mean [95% CI]",
@@ -303,6 +308,16 @@ def render_markdown(groups, t2, imp, comps, t3, bench_meta, score: str, n_boot: 
     return "\n".join(L)
 
 
+def _welch_cell(w) -> str:
+    """``t (df)``; '—' without a test (a sample has < 2 seeds); 'n/a (zero variance)' when both
+    samples are constant (t undefined)."""
+    if w is None:
+        return "—"
+    if not (math.isfinite(w.t) and math.isfinite(w.df)):
+        return "n/a (zero variance)"
+    return f"{w.t:.2f} ({w.df:.1f})"
+
+
 def _first_config(g: EnvGroup) -> dict:
     import yaml
 
@@ -332,7 +347,8 @@ def results_dict(groups, t2, imp, comps, t3, score, n_boot, boot_seed) -> dict:
             "auc": "per-seed trapezoid AUC over steps divided by the step span; mean / population std over seeds",
             "improvement_pct": "100*(swim-swish)/|swish| of the means",
             "table3_improvement_pct": "100*(swish-swim)/swim of the mean ms (the paper's definition)",
-            "bootstrap": f"percentile, {n_boot} resamples, numpy default_rng(seed={boot_seed}), 95%",
+            "bootstrap": (f"percentile, {n_boot} resamples, 95%; numpy default_rng seeds {boot_seed} (x), "
+                          f"{boot_seed + 1} (y), {boot_seed + 2} (difference)"),
         },
         "paper_budget": paper_ref.PAPER_BUDGET,
         "envs": {
@@ -411,6 +427,8 @@ def parse_args(argv):
         p.error("give at least one RUN_DIR or --bench FILE")
     if a.n_boot < 100:
         p.error("--n-boot must be >= 100")
+    if a.boot_seed < 0:
+        p.error(f"--boot-seed must be >= 0 (numpy's default_rng), got {a.boot_seed}")
     return a
 
 
@@ -481,25 +499,51 @@ def _sweep_section(groups, files: dict) -> str:
             + "\n\n![return vs parameter](sweep.png)\n")
 
 
-def write_outputs(out: str, files: dict, force: bool) -> None:
-    """Write ``files`` into ``out`` atomically per folder: a fresh/empty ``out`` receives a
-    completed temporary folder by rename; with ``force`` each file is replaced by ``os.replace``."""
-    exists = os.path.exists(out)
-    if exists and not os.path.isdir(out):
-        raise ReportError(f"--out {out} exists and is not a directory")
-    nonempty = exists and bool(os.listdir(out))
-    if nonempty and not force:
+def check_out(out: str, force: bool) -> None:
+    """Raise :class:`ReportError` unless ``out`` can receive the report: a path to create, an empty
+    folder, or (``force``) a folder whose report files are plain files or symbolic links."""
+    if not out.strip():
+        raise ReportError("--out is empty; give the output folder (a new path, an empty folder, or a "
+                          "report folder with --force)")
+    if os.path.islink(out) and not os.path.exists(out):
+        raise ReportError(f"--out {out} is a dangling symbolic link (to {os.readlink(out)}); give a new "
+                          f"path, an existing folder, or a link to one")
+    if not os.path.exists(out):
+        return
+    if not os.path.isdir(out):
+        raise ReportError(f"--out {out} exists and is not a directory; give a new path or a folder")
+    try:
+        entries = os.listdir(out)
+    except OSError as e:
+        raise ReportError(f"--out {out}: cannot read the folder ({e.strerror})") from None
+    if entries and not force:
         raise ReportError(f"--out {out} exists and is not empty; refusing to overwrite (use --force "
                           f"to replace {', '.join(OUTPUT_FILES)} there)")
-    parent = os.path.dirname(os.path.abspath(out))
+    for name in OUTPUT_FILES:
+        p = os.path.join(out, name)
+        if os.path.lexists(p) and not (os.path.islink(p) or os.path.isfile(p)):
+            kind = "a directory" if os.path.isdir(p) else "not a regular file"
+            raise ReportError(f"--out {out}: {p} is {kind}; --force replaces only files named "
+                              f"{', '.join(OUTPUT_FILES)} (move it away or choose another --out)")
+
+
+def write_outputs(out: str, files: dict, force: bool) -> None:
+    """Write ``files`` into ``out``, all or nothing (see the module docstring); with ``force``, the
+    :data:`OUTPUT_FILES` not in ``files`` are removed from ``out``. Raises :class:`ReportError`."""
+    check_out(out, force)
+    exists = os.path.isdir(out)
     try:
-        os.makedirs(parent, exist_ok=True)
-        tmp = tempfile.mkdtemp(prefix=".report-", dir=parent)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o777 & ~umask)
+        if exists:  # a temporary folder inside out: the renames stay on out's file system
+            tmp = tempfile.mkdtemp(prefix=".report-", dir=out)
+        else:
+            parent = os.path.dirname(os.path.abspath(out))
+            os.makedirs(parent, exist_ok=True)
+            tmp = tempfile.mkdtemp(prefix=".report-", dir=parent)
+            umask = os.umask(0)
+            os.umask(umask)
+            os.chmod(tmp, 0o777 & ~umask)
     except OSError as e:
-        raise ReportError(f"--out {out}: cannot write ({e.strerror})") from None
+        raise ReportError(f"--out {out}: cannot write ({_os_error(e)})") from None
     try:
         for name, content in files.items():
             mode = "wb" if isinstance(content, bytes) else "w"
@@ -509,11 +553,49 @@ def write_outputs(out: str, files: dict, force: bool) -> None:
             os.rename(tmp, out)
             tmp = None
         else:
-            for name in files:
-                os.replace(os.path.join(tmp, name), os.path.join(out, name))
+            _swap_in(out, tmp, list(files))
+    except OSError as e:
+        raise ReportError(f"--out {out}: cannot write ({_os_error(e)}); nothing was "
+                          f"changed there") from None
     finally:
         if tmp is not None:
             shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _swap_in(out: str, tmp: str, names: list[str]) -> None:
+    """Move every existing :data:`OUTPUT_FILES` entry of ``out`` aside into ``tmp``, then the new
+    ``names`` from ``tmp`` into ``out``; on an OSError undo both steps and re-raise."""
+    aside = os.path.join(tmp, ".previous")
+    os.mkdir(aside)
+    moved, placed = [], []
+    try:
+        for name in OUTPUT_FILES:
+            if os.path.lexists(os.path.join(out, name)):
+                os.replace(os.path.join(out, name), os.path.join(aside, name))
+                moved.append(name)
+        for name in names:
+            os.replace(os.path.join(tmp, name), os.path.join(out, name))
+            placed.append(name)
+    except OSError:
+        for name in placed:
+            try:
+                os.remove(os.path.join(out, name))
+            except OSError:
+                pass
+        for name in moved:
+            try:
+                os.replace(os.path.join(aside, name), os.path.join(out, name))
+            except OSError:
+                pass
+        raise
+
+
+def _os_error(e: OSError) -> str:
+    """``strerror: path`` of an OSError, on one line."""
+    msg = e.strerror or str(e) or type(e).__name__
+    if e.filename:
+        msg += f": {e.filename}"
+    return " ".join(msg.split())[:300]
 
 
 def main(argv=None) -> int:
@@ -522,10 +604,8 @@ def main(argv=None) -> int:
     args = parse_args(argv)
     command = "python -m swim_jax.report " + " ".join(argv)
     try:
-        # refuse a non-empty --out before the (slower) computation, and again when writing
-        if os.path.isdir(args.out) and os.listdir(args.out) and not args.force:
-            raise ReportError(f"--out {args.out} exists and is not empty; refusing to overwrite (use "
-                              f"--force to replace {', '.join(OUTPUT_FILES)} there)")
+        # refuse an unusable --out before the (slower) computation, and again when writing
+        check_out(args.out, args.force)
         files = build(args, command)
         write_outputs(args.out, files, args.force)
     except ReportError as e:

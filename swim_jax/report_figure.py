@@ -14,10 +14,55 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.colors import to_hex, to_rgb  # noqa: E402
 from matplotlib.ticker import FuncFormatter, NullFormatter  # noqa: E402
 
-COLORS = {"swim": "tab:red", "swish": "tab:blue", "relu": "tab:green"}
+COLORS = {"swim": "#d62728", "swish": "#1f77b4", "relu": "#2ca02c"}  # tab:red, tab:blue, tab:green
 NAMES = {"swim": "Swim", "swish": "Swish", "relu": "ReLU"}
+# other labels (parameter variants, sweep points): tab10 without the three above, then the light
+# tab20 shades except light red/blue/green; beyond those 14, generated hues (extra_colors)
+_EXTRA_PALETTE = ("#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf",
+                  "#ffbb78", "#c5b0d5", "#c49c94", "#f7b6d2", "#c7c7c7", "#dbdb8d", "#9edae5")
+
+
+def extra_colors(n: int) -> list[str]:
+    """``n`` distinct hex colours, none of them a reserved Swim/Swish/ReLU colour: the fixed palette
+    first, then hues spaced by the golden angle (not within 0.04 of a reserved hue), saturation and
+    value also spread (low discrepancy)."""
+    import colorsys
+
+    used = set(COLORS.values())
+    reserved_hues = [colorsys.rgb_to_hsv(*to_rgb(c))[0] for c in COLORS.values()]
+    out = []
+    for c in _EXTRA_PALETTE:
+        if len(out) == n:
+            return out
+        if c not in used:
+            out.append(c)
+            used.add(c)
+    i = 0
+    while len(out) < n:
+        h = (0.13 + i * 0.6180339887498949) % 1.0
+        s = 0.45 + 0.5 * ((i * 0.41421356237309515) % 1.0)  # low-discrepancy in s and v too, so the
+        v = 0.45 + 0.5 * ((i * 0.7320508075688772) % 1.0)  # candidates never run out
+        i += 1
+        if min(min(abs(h - r), 1 - abs(h - r)) for r in reserved_hues) < 0.04:
+            continue  # keep generated colours away from Swim's red, Swish's blue and ReLU's green
+        c = to_hex(colorsys.hsv_to_rgb(h, s, v))
+        if c not in used:
+            out.append(c)
+            used.add(c)
+    return out
+
+
+def curve_colors(labels) -> dict[str, str]:
+    """``{label: hex colour}``: Swim red, Swish blue, ReLU green (the plain labels only); every other
+    label its own colour, distinct from those and from each other, for any number of labels."""
+    labels = list(dict.fromkeys(labels))
+    others = [lab for lab in labels if lab not in COLORS]
+    out = {lab: COLORS[lab] for lab in labels if lab in COLORS}
+    out.update(zip(others, extra_colors(len(others))))
+    return {lab: out[lab] for lab in labels}
 
 
 def display_name(label: str) -> str:
@@ -40,7 +85,8 @@ def figure4(groups: dict, paths: list[str]) -> None:
     """Draw one panel per env of ``groups`` ({env: EnvGroup}) and save it to each of ``paths``.
 
     Each activation's curve is the mean over seeds of the evaluation return against env steps, with
-    the band mean ± 0.5 · (population) std over seeds shaded, as in the paper.
+    the band mean ± 0.5 · (population) std over seeds shaded, as in the paper. Colours: see
+    :func:`curve_colors` (a label keeps its colour in every panel).
     """
     envs = list(groups)
     n = max(1, len(envs))
@@ -48,15 +94,11 @@ def figure4(groups: dict, paths: list[str]) -> None:
     nrows = math.ceil(n / ncols)
     with plt.rc_context({"svg.hashsalt": "swim-jax-report"}):
         fig, axes = plt.subplots(nrows, ncols, figsize=(5.0 * ncols, 3.8 * nrows), squeeze=False)
-        others = iter(plt.rcParams["axes.prop_cycle"].by_key()["color"][3:])
-        extra_colors: dict[str, str] = {}
+        colors = curve_colors(label for env in envs for label in groups[env].curves)  # same across panels
         for ax, env in zip(axes.flat, envs):
             g = groups[env]
             for label, c in g.curves.items():
-                base = label.split("(")[0].split("+")[0]
-                color = COLORS.get(base) if label == base else None
-                if color is None:
-                    color = extra_colors.setdefault(label, next(others, "0.3"))
+                color = colors[label]
                 mean = c.returns.mean(axis=1)
                 half = 0.5 * c.returns.std(axis=1, ddof=0)
                 ax.plot(c.steps, mean, color=color, lw=1.6, label=f"{display_name(label)} ({c.n_seeds} seeds)")

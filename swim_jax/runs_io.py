@@ -24,6 +24,7 @@ Every problem raises :class:`RunError` with a one-line message.
 from __future__ import annotations
 
 
+import csv
 import json
 import os
 from dataclasses import dataclass, field
@@ -142,6 +143,9 @@ def load_run(path: str) -> Run:
         raise RunError(f"{cfg_path}: missing or invalid key {_one_line(e)}") from None
     if not isinstance(env, str):
         raise RunError(f"{cfg_path}: env.id must be a string")
+    if total_steps % eval_freq:
+        raise RunError(f"{cfg_path}: total_steps={total_steps} is not a multiple of eval_freq={eval_freq} "
+                       f"(swim_jax.train evaluates every eval_freq steps up to total_steps, so it must divide it)")
     try:
         returns = np.load(ev_path, allow_pickle=False)
     except (ValueError, OSError, EOFError) as e:
@@ -150,8 +154,11 @@ def load_run(path: str) -> Run:
     if returns.ndim != 2 or returns.shape[1] != seeds or not 1 <= returns.shape[0] <= expected:
         raise RunError(f"{ev_path}: shape {returns.shape} does not match config.yaml "
                        f"(expected [<= {expected} evaluations, {seeds} seeds])")
-    if not np.issubdtype(returns.dtype, np.number) or not np.all(np.isfinite(returns)):
-        raise RunError(f"{ev_path}: non-numeric or non-finite returns")
+    if returns.dtype.kind not in "iuf":  # complex would lose its imaginary part in the float cast
+        raise RunError(f"{ev_path}: dtype {returns.dtype} is not real-valued numbers; expected float "
+                       f"(or integer) returns")
+    if not np.all(np.isfinite(returns)):
+        raise RunError(f"{ev_path}: non-finite returns (NaN or inf)")
     return Run(
         path=path, config=cfg, env=env, activation=activation_label(act) + _point_suffix(path, act),
         total_steps=total_steps,
@@ -203,14 +210,36 @@ def expand_sweeps(paths: list[str]) -> list[str]:
     for p in paths:
         table = os.path.join(p, "sweep.csv")
         if os.path.isfile(table):
-            with open(table) as f:
-                labels = [line.split(",", 1)[0] for line in f.read().splitlines()[1:] if line]
+            labels = _sweep_labels(table)
             if not labels:
                 raise RunError(f"{table}: no sweep points (the sweep has not written an evaluation yet?)")
             out.extend(os.path.join(p, "points", label) for label in labels)
         else:
             out.append(p)
     return out
+
+
+def _sweep_labels(table: str) -> list[str]:
+    """The ``point`` column of ``sweep.csv``, in row order. The file is CSV with quoting (labels of
+    multi-axis sweeps contain commas: ``"beta=0.5,tau=0.01"``). Tables written before quoting have
+    bare labels: fine without commas; a row with more fields than the header is such an unquoted
+    multi-axis label, whose pieces are the extra leading fields (no value or key holds a comma)."""
+    try:
+        with open(table, newline="") as f:
+            rows = [r for r in csv.reader(f) if r]
+    except (OSError, UnicodeDecodeError, csv.Error) as e:
+        raise RunError(f"{table}: unreadable ({_one_line(e)})") from None
+    if not rows or rows[0][0] != "point":
+        raise RunError(f"{table}: not a sweep table (expected a CSV header starting with 'point', "
+                       f"as written by python -m swim_jax.sweep)")
+    width = len(rows[0])
+    labels = []
+    for line, row in enumerate(rows[1:], 2):
+        extra = len(row) - width
+        if extra < 0:
+            raise RunError(f"{table}: line {line} has {len(row)} fields, the header {width} (truncated file?)")
+        labels.append(",".join(row[:extra + 1]))
+    return labels
 
 
 def _point_suffix(path: str, act: dict) -> str:

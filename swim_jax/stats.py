@@ -291,10 +291,13 @@ def verdict(c: Comparison, x_name: str = "Swim", y_name: str = "Swish") -> str:
     The evidence counts as sufficient only if both samples have at least ``MIN_SEEDS`` seeds, Welch's
     p < ``ALPHA`` and the bootstrap 95% CI of the difference excludes 0 (all three).
     """
-    direction = "higher" if c.diff > 0 else "lower" if c.diff < 0 else "equal"
+    if c.diff == 0:
+        relation = f"equals {y_name}'s"
+    else:
+        relation = f"is {'higher' if c.diff > 0 else 'lower'} than {y_name}'s by {_fmt_num(abs(c.diff))}"
     lo, hi = c.diff_ci
     p = c.welch.p_two_sided if c.welch is not None else float("nan")
-    observed = (f"{x_name}'s mean per-seed {c.score} score is {direction} than {y_name}'s by {_fmt_num(abs(c.diff))} "
+    observed = (f"{x_name}'s mean per-seed {c.score} score {relation} "
                 f"(95% bootstrap CI of the difference [{_fmt_num(lo)}, {_fmt_num(hi)}], Welch p = {_fmt_p(p)}, "
                 f"P({x_name} > {y_name}) = {c.prob_improvement:.2f})")
     reasons = []

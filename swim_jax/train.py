@@ -505,15 +505,20 @@ def write_sweep_table(run_dir: str, cfg: Config, points, evals: np.ndarray) -> N
     each seed's mean episode return; std over seeds), from ``evals[n_done, P·seeds, episodes]``."""
     keys = list(cfg.sweep)
     per_point = evals.mean(axis=2).reshape(evals.shape[0], len(points), cfg.seeds)  # [n, P, seeds]
-    with open(os.path.join(run_dir, "sweep.csv"), "w") as f:
-        f.write(",".join(["point", *keys, "final_mean", "final_std", "best_mean", "best_step"]) + "\n")
+    # csv quoting: multi-axis labels contain commas ("beta=0.5,tau=0.01") and are written quoted;
+    # labels without commas are written bare, as before (swim_jax.runs_io.expand_sweeps reads both)
+    import csv
+
+    with open(os.path.join(run_dir, "sweep.csv"), "w", newline="") as f:
+        w = csv.writer(f, quoting=csv.QUOTE_MINIMAL, lineterminator="\n")
+        w.writerow(["point", *keys, "final_mean", "final_std", "best_mean", "best_step"])
         for p, point in enumerate(points):
             m = per_point[:, p]  # [n, seeds]
             curve = m.mean(axis=1)
             best = int(np.argmax(curve))
-            row = [cfgmod.point_label(point), *(repr(point[k]) for k in keys),
-                   repr(float(curve[-1])), repr(float(m[-1].std())), repr(float(curve[best])), str(best * cfg.eval_freq)]
-            f.write(",".join(row) + "\n")
+            w.writerow([cfgmod.point_label(point), *(repr(point[k]) for k in keys),
+                        repr(float(curve[-1])), repr(float(m[-1].std())), repr(float(curve[best])),
+                        str(best * cfg.eval_freq)])
 
 
 def _progress_line(cfg: Config, points, step: int, ev: np.ndarray, dt: float, first: bool,

@@ -353,3 +353,216 @@ def test_module_cli_exit_status(tmp_path, walker):
                        cwd=ROOT, capture_output=True, text=True, timeout=120)
     assert p.returncode == 0, p.stderr
     assert sorted(os.listdir(out)) == ["REPORT.md", "figure4.png", "figure4.svg", "results.json"]
+
+
+# ------------------------------------------------------------------------------------------------
+# defects: figure colours, --out edge cases, atomic --force, input validation, wording
+# ------------------------------------------------------------------------------------------------
+
+RESERVED = {"#d62728": "swim", "#1f77b4": "swish", "#2ca02c": "relu"}  # matplotlib tab:red/blue/green
+
+
+def _curve_stroke_colours(svg: str) -> list[str]:
+    """Stroke colours of the plotted curves (clipped to the axes, line width 1.6), in drawing order."""
+    import re
+
+    return re.findall(r'clip-path="url\(#\w+\)" style="fill: none; stroke: (#[0-9a-f]{6}); stroke-width: 1\.6;', svg)
+
+
+def test_figure4_colours_distinct_for_any_number_of_curves(tmp_path, capsys):
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    paths = [write_run(runs, "swim", act="swim"), write_run(runs, "swish", act="swish", returns=SWISH),
+             write_run(runs, "relu", act="relu", returns=SWISH + 1)]
+    for i, k in enumerate((0.25, 0.75, 1.0, 1.5, 2.0, 3.0)):
+        paths.append(write_run(runs, f"swim_k{i}", act="swim", k=k, returns=SWIM + i))
+    for i, b in enumerate((0.5, 1.5, 2.0, 3.0, 4.0, 5.0)):
+        paths.append(write_run(runs, f"swish_b{i}", act="swish", beta=b, returns=SWISH + i))
+    out = tmp_path / "out"
+    rc, _, err = run_report(paths + ["--out", out, "--n-boot", "200"], capsys)
+    assert rc == 0, err
+    colours = _curve_stroke_colours((out / "figure4.svg").read_text())
+    assert len(colours) == 15  # 3 paper activations + 12 parameter variants
+    assert len(set(colours)) == 15, colours  # every curve its own colour
+    for reserved in RESERVED:  # tab:red/blue/green only for Swim, Swish and ReLU themselves
+        assert colours.count(reserved) == 1, (reserved, colours)
+
+
+def test_figure_curve_colours_function():
+    from swim_jax.report_figure import COLORS, curve_colors
+
+    labels = ["swim", "swish", "relu"] + [f"swim(k={i})" for i in range(40)]
+    cols = curve_colors(labels)
+    assert cols["swim"] == "#d62728" and cols["swish"] == "#1f77b4" and cols["relu"] == "#2ca02c"
+    assert len(set(cols.values())) == len(labels)
+    assert cols["swim(k=0)"] not in RESERVED  # the first extra label is not Swim's red
+    assert curve_colors(["swim(k=2)"])["swim(k=2)"] not in RESERVED
+    assert set(COLORS) == {"swim", "swish", "relu"}
+
+
+def _one_error_line(err: str) -> bool:
+    return len(err.strip().splitlines()) == 1 and err.startswith("report: error: ")
+
+
+def test_out_empty_string_is_refused(tmp_path, walker, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    before = sorted(os.listdir(tmp_path.parent))
+    rc, _, err = run_report(walker + ["--out", "", "--n-boot", "200"], capsys)
+    assert rc == 2 and _one_error_line(err), err
+    assert "--out is empty" in err
+    assert sorted(os.listdir(tmp_path.parent)) == before  # no .report-* folder next to the cwd
+    assert sorted(os.listdir(tmp_path)) == ["runs"]
+
+
+def test_out_dangling_symlink_is_refused(tmp_path, walker, capsys):
+    link = tmp_path / "link"
+    link.symlink_to(tmp_path / "gone")
+    rc, _, err = run_report(walker + ["--out", link, "--n-boot", "200"], capsys)
+    assert rc == 2 and _one_error_line(err), err
+    assert "dangling symbolic link" in err and str(link) in err
+    assert link.is_symlink() and not (tmp_path / "gone").exists()
+    assert [p for p in os.listdir(tmp_path) if p.startswith(".report-")] == []
+    # a link to an existing empty folder is a valid --out
+    (tmp_path / "real").mkdir()
+    ok = tmp_path / "ok"
+    ok.symlink_to(tmp_path / "real")
+    assert run_report(walker + ["--out", ok, "--n-boot", "200"], capsys)[0] == 0
+    assert (tmp_path / "real" / "REPORT.md").is_file()
+
+
+def _old_report(out):
+    out.mkdir()
+    for name in ("figure4.png", "figure4.svg", "results.json", "sweep.png", "sweep.svg"):
+        (out / name).write_text(f"old {name}")
+    (out / "keep.txt").write_text("mine")
+
+
+def _snapshot(d):
+    return {p: (open(os.path.join(d, p), "rb").read() if os.path.isfile(os.path.join(d, p)) else "dir")
+            for p in sorted(os.listdir(d))}
+
+
+def test_force_refuses_a_directory_named_report_md_and_changes_nothing(tmp_path, walker, capsys):
+    out = tmp_path / "out"
+    _old_report(out)
+    (out / "REPORT.md").mkdir()
+    (out / "REPORT.md" / "notes.txt").write_text("precious")
+    before = _snapshot(out)
+    rc, _, err = run_report(walker + ["--out", out, "--force", "--n-boot", "200"], capsys)
+    assert rc == 2 and _one_error_line(err), err
+    assert "REPORT.md" in err and "directory" in err
+    assert _snapshot(out) == before  # the figures were not replaced
+    assert (out / "REPORT.md" / "notes.txt").read_text() == "precious"
+    assert [p for p in os.listdir(tmp_path) if p.startswith(".report-")] == []
+
+
+def test_force_is_all_or_nothing_when_a_replacement_fails(tmp_path, walker, capsys, monkeypatch):
+    out = tmp_path / "out"
+    _old_report(out)
+    (out / "REPORT.md").write_text("old report")
+    before = _snapshot(out)
+    real_replace = os.replace
+
+    def flaky(src, dst, *a, **kw):  # the 3rd file moved into out fails
+        if os.path.dirname(os.path.abspath(dst)) == str(out):
+            flaky.n += 1
+            if flaky.n == 3:
+                raise OSError(28, "No space left on device")
+        return real_replace(src, dst, *a, **kw)
+
+    flaky.n = 0
+    monkeypatch.setattr(os, "replace", flaky)
+    rc, _, err = run_report(walker + ["--out", out, "--force", "--n-boot", "200"], capsys)
+    monkeypatch.undo()
+    assert flaky.n >= 3
+    assert rc == 2 and _one_error_line(err), err
+    assert "No space left on device" in err
+    assert _snapshot(out) == before  # everything restored, the stale sweep figures too
+    assert [p for p in os.listdir(tmp_path) if p.startswith(".report-")] == []
+
+
+def test_force_removes_stale_sweep_figures(tmp_path, walker, capsys):
+    runs = tmp_path / "k"
+    runs.mkdir()
+    ks = [write_run(runs, "k1", act="swim", k=1.0), write_run(runs, "k2", act="swim", k=2.0)]
+    out = tmp_path / "out"
+    assert run_report(walker + ks + ["--out", out, "--n-boot", "200"], capsys)[0] == 0
+    assert (out / "sweep.png").is_file() and (out / "sweep.svg").is_file()
+    (out / "keep.txt").write_text("mine")
+    rc, _, err = run_report(walker + ["--out", out, "--force", "--n-boot", "200"], capsys)
+    assert rc == 0, err
+    assert sorted(os.listdir(out)) == ["REPORT.md", "figure4.png", "figure4.svg", "keep.txt", "results.json"]
+    assert "sweep.png" not in (out / "REPORT.md").read_text()
+
+
+def test_complex_evaluations_are_refused(tmp_path, walker, capsys):
+    bad = write_run(tmp_path, "cplx", act="relu", returns=SWISH)
+    np.save(os.path.join(bad, "evaluations.npy"), SWISH + 1j)
+    out = tmp_path / "out"
+    rc, _, err = run_report(walker + [bad, "--out", out], capsys)
+    assert rc == 2 and _one_error_line(err), err
+    assert bad in err and "complex128" in err and "real" in err
+    assert not out.exists()
+
+
+def test_total_steps_not_a_multiple_of_eval_freq_is_refused(tmp_path, capsys):
+    # 250 steps, evaluations every 100: steps 0, 100, 200 -- the last 50 steps were never evaluated
+    paths = [write_run(tmp_path, "a", act="swim", total_steps=250), write_run(tmp_path, "b", act="swish",
+                                                                               returns=SWISH, total_steps=250)]
+    out = tmp_path / "out"
+    rc, _, err = run_report(paths + ["--out", out], capsys)
+    assert rc == 2 and _one_error_line(err), err
+    assert "total_steps=250" in err and "multiple of eval_freq=100" in err and paths[0] in err
+    assert not out.exists()
+
+
+def test_report_states_the_bootstrap_seed_of_each_sample(tmp_path, capsys):
+    x = np.array([[0.0, 0.0, 0.0, 0.0], [3.0, 7.0, 1.0, 9.0], [4.0, 2.0, 8.0, 5.0]])
+    y = np.array([[0.0, 0.0, 0.0], [2.0, 6.0, 1.0], [5.0, 3.0, 4.0]])
+    paths = [write_run(tmp_path, "a", act="swim", returns=x), write_run(tmp_path, "b", act="swish", returns=y)]
+    out = tmp_path / "out"
+    rc, _, err = run_report(paths + ["--out", out, "--n-boot", "500", "--boot-seed", "5", "--score", "final"], capsys)
+    assert rc == 0, err
+    md = (out / "REPORT.md").read_text()
+    assert "seed 5 for X's CI, 6 for Y's CI and 7 for the difference's" in md
+    assert "seed 5, so deterministic" not in md
+    res = json.loads((out / "results.json").read_text())
+    assert "5 (x), 6 (y), 7 (difference)" in res["definitions"]["bootstrap"]
+    c = res["envs"]["Walker2d-v5"]["comparisons"]["swim_vs_swish"]["final"]
+
+    def loop_ci(*samples, seed):  # the draws the text promises, as a plain loop
+        rng = np.random.default_rng(seed)
+        idx = [rng.integers(0, s.size, size=(500, s.size)) for s in samples]
+        stat = [sum((1 if j == 0 else -1) * np.mean([s[i] for i in idx[j][b]]) for j, s in enumerate(samples))
+                for b in range(500)]
+        return list(np.quantile(stat, [0.025, 0.975]))
+
+    assert c["ci95_x"] == pytest.approx(loop_ci(x[-1], seed=5), rel=1e-12)
+    assert c["ci95_y"] == pytest.approx(loop_ci(y[-1], seed=6), rel=1e-12)
+    assert c["diff_ci95"] == pytest.approx(loop_ci(x[-1], y[-1], seed=7), rel=1e-12)
+
+
+def test_welch_cell_when_both_samples_have_zero_variance(tmp_path, capsys):
+    # every seed has the same curve: per-seed scores constant, Welch's t undefined
+    paths = [write_run(tmp_path, "a", act="swim", returns=np.array([[0.0, 0.0], [5.0, 5.0], [6.0, 6.0]])),
+             write_run(tmp_path, "b", act="swish", returns=np.array([[0.0, 0.0], [4.0, 4.0], [4.0, 4.0]]))]
+    out = tmp_path / "out"
+    rc, _, err = run_report(paths + ["--out", out, "--n-boot", "200"], capsys)
+    assert rc == 0, err
+    md = (out / "REPORT.md").read_text()
+    assert "nan (nan)" not in md
+    row = [line for line in md.splitlines() if line.startswith("| Walker2d-v5 | Swim vs Swish | max |")]
+    assert len(row) == 1 and row[0].endswith("| 6.0 [6.0, 6.0] | 4.0 [4.0, 4.0] | 6.0 / 4.0 | +2.0 [+2.0, +2.0] "
+                                             "| 1.00 | n/a (zero variance) | n/a |"), row
+    res = json.loads((out / "results.json").read_text())
+    w = res["envs"]["Walker2d-v5"]["comparisons"]["swim_vs_swish"]["max"]["welch"]
+    assert w == {"t": None, "df": None, "p_two_sided": None}
+
+
+def test_negative_boot_seed_is_refused(tmp_path, walker, capsys):
+    with pytest.raises(SystemExit) as e:
+        report.main(walker + ["--out", str(tmp_path / "o"), "--boot-seed", "-1"])
+    assert e.value.code == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "--boot-seed must be >= 0" in err
+    assert not (tmp_path / "o").exists()

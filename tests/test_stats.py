@@ -154,3 +154,12 @@ def test_verdict_wording():
     assert v.startswith("Evidence too weak") and "p ≥ 0.05" in v and "includes 0" in v
     single = stats.compare([1.0], [2.0], "final", n_boot=500)
     assert single.welch is None and "no t-test possible" in stats.verdict(single)
+
+
+def test_verdict_wording_when_the_means_are_equal():
+    c = stats.compare([1.0, 2.0, 3.0], [3.0, 2.0, 1.0], "auc", n_boot=500)
+    assert c.diff == 0.0
+    v = stats.verdict(c)
+    assert "equal than" not in v
+    assert "Swim's mean per-seed auc score equals Swish's (95% bootstrap CI" in v
+    assert v.startswith("Evidence too weak")

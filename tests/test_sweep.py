@@ -197,3 +197,122 @@ def test_report_expands_a_sweep_and_plots_return_vs_k(swept, tmp_path):
 def test_render_refuses_the_sweep_folder_with_a_hint(swept):
     with pytest.raises(RenderError, match="is a sweep; render one of its points"):
         load_policy(swept.run_dir, 0)
+
+
+# ------------------------------------------------------------------------------------------------
+# multi-axis sweeps: sweep.csv labels with commas (quoted), read back by the report
+# ------------------------------------------------------------------------------------------------
+
+MULTI = ["sweep.agent.activation.beta=[0.5,2]", "sweep.agent.tau=[0.005,0.01]"]
+MULTI_LABELS = ["beta=0.5,tau=0.005", "beta=0.5,tau=0.01", "beta=2,tau=0.005", "beta=2,tau=0.01"]
+
+
+def test_write_sweep_table_quotes_labels_with_commas(tmp_path):
+    cfg = cfgmod.resolve("hopper_swish", ["seeds=2", "eval_freq=100", "total_steps=200", *MULTI])
+    points = cfgmod.sweep_points(cfg)
+    rng = np.random.default_rng(0)
+    evals = rng.normal(size=(3, 8, 2))  # [evaluations, points × seeds, episodes]
+    train.write_sweep_table(str(tmp_path), cfg, points, evals)
+    with open(tmp_path / "sweep.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert [r["point"] for r in rows] == MULTI_LABELS
+    for p, r in enumerate(rows):
+        assert float(r["agent.activation.beta"]) == (0.5, 0.5, 2.0, 2.0)[p]
+        assert float(r["agent.tau"]) == (0.005, 0.01, 0.005, 0.01)[p]
+        seeds = [[np.mean(evals[i, 2 * p + s]) for s in range(2)] for i in range(3)]  # [n, seeds]
+        curve = [np.mean(v) for v in seeds]
+        assert float(r["final_mean"]) == pytest.approx(curve[-1], rel=1e-12)
+        assert float(r["final_std"]) == pytest.approx(abs(seeds[-1][0] - seeds[-1][1]) / 2, rel=1e-12)
+        assert float(r["best_mean"]) == pytest.approx(max(curve), rel=1e-12)
+        assert int(r["best_step"]) == 100 * curve.index(max(curve))
+    # labels without commas are written as before (no quotes): old readers keep working
+    one = cfgmod.resolve("hopper_swim", ["seeds=2", "sweep.agent.activation.k=[0.5,1]"])
+    train.write_sweep_table(str(tmp_path), one, cfgmod.sweep_points(one), evals[:, :4])
+    lines = (tmp_path / "sweep.csv").read_text().splitlines()
+    assert lines[0] == "point,agent.activation.k,final_mean,final_std,best_mean,best_step"
+    assert lines[1].startswith("k=0.5,0.5,") and '"' not in "".join(lines)
+
+
+def _sweep_folder(root, labels, table: str):
+    os.makedirs(root, exist_ok=True)
+    for label in labels:
+        os.makedirs(os.path.join(root, "points", label))
+    with open(os.path.join(root, "sweep.csv"), "w", newline="") as f:
+        f.write(table)
+    return str(root)
+
+
+@pytest.mark.parametrize("kind", ["legacy_one_axis", "quoted_multi_axis", "legacy_unquoted_multi_axis", "crlf"])
+def test_expand_sweeps_reads_quoted_and_old_sweep_tables(tmp_path, kind):
+    if kind == "legacy_one_axis":  # written before quoting; labels without commas
+        labels = ["k=0.5", "k=1"]
+        table = ("point,agent.activation.k,final_mean,final_std,best_mean,best_step\n"
+                 "k=0.5,0.5,10.0,1.0,12.0,100\nk=1,1.0,11.0,2.0,13.0,200\n")
+    else:
+        labels = MULTI_LABELS
+        header = "point,agent.activation.beta,agent.tau,final_mean,final_std,best_mean,best_step"
+        vals = [("0.5", "0.005"), ("0.5", "0.01"), ("2.0", "0.005"), ("2.0", "0.01")]
+        quote = '"' if kind != "legacy_unquoted_multi_axis" else ""
+        end = "\r\n" if kind == "crlf" else "\n"
+        table = end.join([header] + [f"{quote}{lab}{quote},{b},{t},1.0,0.0,2.0,100"
+                                     for lab, (b, t) in zip(labels, vals)]) + end
+    d = _sweep_folder(tmp_path / "sw", labels, table)
+    other = str(tmp_path / "plain")
+    assert runs_io.expand_sweeps([d, other]) == [os.path.join(d, "points", lab) for lab in labels] + [other]
+
+
+def test_expand_sweeps_bad_table_one_line(tmp_path):
+    d = _sweep_folder(tmp_path / "a", [], "point,agent.tau,final_mean\n")
+    with pytest.raises(runs_io.RunError, match="no sweep points"):
+        runs_io.expand_sweeps([d])
+    d = _sweep_folder(tmp_path / "b", [], "label,agent.tau\nx,1\n")
+    with pytest.raises(runs_io.RunError, match="not a sweep table"):
+        runs_io.expand_sweeps([d])
+    d = _sweep_folder(tmp_path / "c", [], "point,agent.tau,final_mean\ntau=1\n")
+    with pytest.raises(runs_io.RunError, match="line 2"):
+        runs_io.expand_sweeps([d])
+
+
+def test_multi_axis_sweep_trains_and_reports(tmp_path, capsys):
+    """python -m swim_jax.sweep over beta × tau (4 points), then python -m swim_jax.report on it."""
+    argv = ["config=hopper_swish", "seeds=1", "pad_single_seed=false", "total_steps=200", "eval_freq=100",
+            "learning_starts=100", "eval_episodes=1", "replay_size=500", "agent.hidden=[8]",
+            "agent.batch_size=8", "env.backend=mujoco", "progress_steps=100", *MULTI,
+            f"out_dir={tmp_path / 'runs'}"]
+    assert sweep.main(argv) == 0, capsys.readouterr().err
+    (run_dir,) = [str(p) for p in (tmp_path / "runs").iterdir()]
+    with open(os.path.join(run_dir, "sweep.csv"), newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert [r["point"] for r in rows] == MULTI_LABELS
+    finals = {}
+    for r in rows:
+        pd = os.path.join(run_dir, "points", r["point"])
+        values = json.load(open(os.path.join(pd, "point.json")))["values"]
+        assert values == {"agent.activation.beta": float(r["agent.activation.beta"]),
+                          "agent.tau": float(r["agent.tau"])}
+        ev = np.load(os.path.join(pd, "evaluations.npy"))
+        assert ev.shape == (3, 1)
+        assert float(r["final_mean"]) == pytest.approx(ev[-1, 0])
+        finals[r["point"]] = ev
+    capsys.readouterr()
+
+    out = tmp_path / "report"
+    rc = report.main([run_dir, "--out", str(out), "--n-boot", "200"])
+    cap = capsys.readouterr()
+    assert rc == 0, cap.err
+    res = json.loads((out / "results.json").read_text())
+    t2 = res["envs"]["Hopper-v5"]["table2"]
+    expect = {f"swish(beta={lab.split(',')[0][5:]})[{lab.split(',')[1]}]": lab for lab in MULTI_LABELS}
+    assert sorted(t2) == sorted(expect)  # four experiments, not pooled as seeds
+    for act, lab in expect.items():
+        ev = finals[lab]
+        assert t2[act]["seeds"] == 1 and t2[act]["runs"] == [os.path.join(run_dir, "points", lab)]
+        assert t2[act]["final_mean"] == pytest.approx(ev[-1, 0], rel=1e-12)
+        assert t2[act]["max_mean"] == pytest.approx(ev[:, 0].max(), rel=1e-12)
+    md = (out / "REPORT.md").read_text()
+    assert "| Swish(beta=0.5)[tau=0.005] | 1 |" in md and "| Swish(beta=2)[tau=0.01] | 1 |" in md
+    import re
+
+    strokes = re.findall(r'clip-path="url\(#\w+\)" style="fill: none; stroke: (#[0-9a-f]{6}); stroke-width: 1\.6;',
+                         (out / "figure4.svg").read_text())
+    assert len(strokes) == 4 and len(set(strokes)) == 4
