@@ -199,7 +199,7 @@ def run_ours(env_id: str, s: dict) -> dict:
     with tempfile.TemporaryDirectory(prefix="ours-") as tmp:
         cmd = [sys.executable, "-m", "swim_jax.bench", "train", "--config", CONFIGS[env_id],
                "--lanes", str(s["lanes"]), "--chunk-steps", str(s["steps"]), "--repeats", "1",
-               "--variant", "env.backend=mujoco", "--out", tmp]
+               "--variant", "env.backend=mujoco", "--no-roofline", "--out", tmp]
         proc = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
         files = sorted(glob.glob(os.path.join(tmp, "train-*.json")))
         if proc.returncode != 0 or not files:
