@@ -24,7 +24,6 @@ per-layer weight.
 
 from __future__ import annotations
 
-import contextlib
 import math
 from dataclasses import dataclass
 from functools import partial
@@ -45,7 +44,6 @@ __all__ = [
     "rsqrt_newton",
     "rsqrt_default",
     "SWIM_VARIANTS",
-    "use_swim_variant",
     "swish",
     "relu",
     "hard_swish",
@@ -206,38 +204,23 @@ SWIM_VARIANTS: dict[str, Callable] = {
     "newton4": make_swim(lambda v: rsqrt_newton(v, 4), "swim_newton4"),
     "newton2+shared-s": make_swim(lambda v: rsqrt_newton(v, 2), "swim_newton2_shared_s", share_s=True),
 }
-_swim_kernel = SWIM_VARIANTS["default"]
-
-
-@contextlib.contextmanager
-def use_swim_variant(variant: str):
-    """Within the block, ``swim`` (and so every network tracing it) uses ``SWIM_VARIANTS[variant]``.
-
-    For benchmarks that compare kernels inside whole programs: trace/compile the program inside
-    the block. Unknown variants raise ValueError naming the valid ones.
-    """
-    global _swim_kernel
-    if variant not in SWIM_VARIANTS:
-        raise ValueError(f"unknown Swim variant {variant!r}; valid: {', '.join(SWIM_VARIANTS)}")
-    previous, _swim_kernel = _swim_kernel, SWIM_VARIANTS[variant]
-    try:
-        yield
-    finally:
-        _swim_kernel = previous
-
-
-def swim(x: Array, k=0.5) -> Array:
+def swim(x: Array, k=0.5, variant: str = "default") -> Array:
     """Swim: f(x) = x/2 · (kx/√(1+k²x²) + 1), with a custom rsqrt-based derivative.
 
     ``k`` > 0 is a Python float or an array broadcastable against x (traced values allowed).
     The result has x's dtype (k is cast to it). See the module docstring for the math.
+    ``variant`` names the inverse-square-root kernel (``SWIM_VARIANTS``; benchmarks compare
+    them); it is an explicit argument, so a program traced for one kernel is never reused for
+    another (networks select one with the activation name ``swim[<variant>]``).
     """
+    if variant not in SWIM_VARIANTS:
+        raise ValueError(f"unknown Swim variant {variant!r}; valid: {', '.join(SWIM_VARIANTS)}")
     x = jnp.asarray(x)
     if not jnp.issubdtype(x.dtype, jnp.floating):
         x = x.astype(jnp.result_type(float))
     if not isinstance(k, jax.core.Tracer):
         validate_params("swim", {"k": k})
-    return _swim_kernel(x, jnp.asarray(k, x.dtype))
+    return SWIM_VARIANTS[variant](x, jnp.asarray(k, x.dtype))
 
 
 def swim_reference(x: Array, k=0.5) -> Array:
@@ -302,6 +285,11 @@ ACTIVATIONS: dict[str, ActivationSpec] = {
 
 
 def _spec(name: str) -> ActivationSpec:
+    """The spec of a registry name, or of ``swim[<variant>]`` (Swim with that kernel; benchmarks)."""
+    base, _, rest = name.partition("[")
+    if base == "swim" and rest.endswith("]") and rest[:-1] in SWIM_VARIANTS:
+        variant = rest[:-1]
+        return ActivationSpec(lambda x, k=0.5: swim(x, k, variant), ACTIVATIONS["swim"].defaults)
     if name not in ACTIVATIONS:
         raise ValueError(
             f"unknown activation {name!r}; valid: {', '.join(sorted(ACTIVATIONS))}"

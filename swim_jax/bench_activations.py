@@ -186,9 +186,7 @@ def _update_program(activation: str, dtype, obs_dim=17, act_dim=6, updates=10):
     """
     from agents.replay import Transition
 
-    name, _, variant = activation.partition("[")
-    variant = variant.rstrip("]") or "default"
-    agent = _td3_agent(name, obs_dim, act_dim, dtype)
+    agent = _td3_agent(activation, obs_dim, act_dim, dtype)  # "swim[<variant>]" is a registry name
     keys = jax.random.split(jax.random.key(2), 6)
     b = agent.config.batch_size
     batch = Transition(
@@ -208,8 +206,7 @@ def _update_program(activation: str, dtype, obs_dim=17, act_dim=6, updates=10):
         return jax.lax.scan(body, state, jnp.arange(updates))
 
     key = jax.random.key(3)
-    with A.use_swim_variant(variant):
-        compiled = jax.jit(run).lower(state, key).compile()
+    compiled = jax.jit(run).lower(state, key).compile()
     return compiled, state
 
 

@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 from jax.test_util import check_grads
 
-from swim_jax.activations import use_swim_variant as A_use_variant
 from swim_jax.activations import (
     ACTIVATIONS,
     SWIM_VARIANTS,
@@ -358,13 +357,21 @@ def test_flax_module_fixed_and_learnable_k():
         Activation().init(jax.random.key(0), x)
 
 
-def test_use_swim_variant_swaps_the_kernel_inside_traced_programs():
+def test_swim_variant_is_an_explicit_argument_so_programs_never_mix_kernels():
+    """The kernel is an argument (``swim(x, k, variant)``, or the activation name ``swim[v]``),
+    not a global switch: a jitted function keeps its own kernel whatever is traced after it."""
     x = jnp.asarray([0.3, -2.0])
-    with A_use_variant("rsqrt"):
-        traced = jax.make_jaxpr(lambda v: swim(v, K))(x)
-    assert "= rsqrt " in str(traced) and "rsqrt_newton" not in str(traced)
+    traced = str(jax.make_jaxpr(lambda v: swim(v, K, "rsqrt"))(x))
+    assert "= rsqrt " in traced and "rsqrt_newton" not in traced
     default = str(jax.make_jaxpr(lambda v: swim(v, K))(x))
     assert "rsqrt_newton" in default and "= rsqrt " not in default  # default f32 kernel: Newton
+    by_name = str(jax.make_jaxpr(get_activation("swim[rsqrt]", k=K))(x))
+    assert "= rsqrt " in by_name
+    f_default, f_rsqrt = jax.jit(get_activation("swim", k=K)), jax.jit(get_activation("swim[rsqrt]", k=K))
+    a, b = f_default(x), f_rsqrt(x)  # compiled in turn; each keeps its own kernel
+    np.testing.assert_array_equal(np.asarray(f_default(x)), np.asarray(a))
+    np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-5)  # two float32 kernels
     with pytest.raises(ValueError, match="unknown Swim variant 'fast'; valid: default, rsqrt"):
-        with A_use_variant("fast"):
-            pass
+        swim(x, K, "fast")
+    with pytest.raises(ValueError, match="unknown activation 'swim\\[fast\\]'"):
+        get_activation("swim[fast]")
