@@ -175,7 +175,7 @@ class LocomotionEnv(brax_base.Env):
         if self._native is not None:
             return self._native.reset(qpos, qvel)
         data = self._data0.replace(qpos=qpos.astype(self.dtype), qvel=qvel.astype(self.dtype))
-        with mjx_solver.implementation(self.solver_impl):
+        with mjx_solver._implementation(self.solver_impl):
             return mjx.forward(self.sys, data)
 
     def physics_step(self, data: mjx.Data, action: jax.Array) -> mjx.Data:
@@ -183,7 +183,7 @@ class LocomotionEnv(brax_base.Env):
         if self._native is not None:
             return self._native.step(data, action)
         data = data.replace(ctrl=action.astype(self.dtype))
-        with mjx_solver.implementation(self.solver_impl):
+        with mjx_solver._implementation(self.solver_impl):
             data = jax.lax.fori_loop(0, self.frame_skip, lambda _, d: mjx.step(self.sys, d), data)
         if self.needs_post_constraint:
             data = mjx.rne_postconstraint(self.sys, data)

@@ -55,9 +55,12 @@ def check_implementation(name: str) -> str:
 
 
 @contextlib.contextmanager
-def implementation(name: str):
+def _implementation(name: str):
     """Within the block, traced MJX steps solve constraints with ``name``: "c" (:func:`solve`, the
-    default) or "mjx" (MJX's own solver). Read at trace time, so wrap the code being jitted."""
+    default) or "mjx" (MJX's own solver). Read at trace time. Private on purpose: only
+    ``LocomotionEnv.physics_reset`` / ``physics_step`` use it, around the code they trace, so the
+    choice is the env's own option (``solver_impl``) and every jitted function that steps an env
+    closes over that env; there is no process-wide switch that a compiled program could miss."""
     check_implementation(name)
     previous, _active[0] = _active[0], name
     try:
@@ -204,7 +207,7 @@ def solve(m, d):
 
     Same contract as ``mujoco.mjx._src.solver.solve``: returns ``d`` with qacc, qfrc_constraint and
     efc_force set. Models :func:`supported` does not cover, and code traced inside
-    ``implementation("mjx")``, use MJX's own solver.
+    ``_implementation("mjx")`` (an env with ``solver_impl="mjx"``), use MJX's own solver.
     """
     if _active[0] == "mjx" or not supported(m):
         return MJX_SOLVE(m, d)
