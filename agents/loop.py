@@ -164,17 +164,15 @@ def update_step(agent: TD3, learning_starts: int, s: TrainState, k_update: Array
 
     def do_update(a: TD3State):
         batch = replay.sample(s.buffer, k_sample, agent.config.batch_size)
-        return agent.update(a, batch, k_td3, update_actor)
+        new, m = agent.update(a, batch, k_td3, update_actor)
+        ok = jnp.stack([jnp.isfinite(m.critic_loss), jnp.isfinite(m.actor_loss),
+                        _all_finite(new.actor), _all_finite(new.critic)])
+        return new, m, ok
 
-    agent_state, m = jax.lax.cond(
-        t >= learning_starts, do_update, lambda a: (a, _zero_metrics(agent.dtype)), s.agent
-    )
-    ok = jnp.stack([
-        jnp.isfinite(m.critic_loss),
-        jnp.isfinite(m.actor_loss),
-        _all_finite(agent_state.actor),
-        _all_finite(agent_state.critic),
-    ])
+    def no_update(a: TD3State):  # parameters unchanged: nothing new can be non-finite
+        return a, _zero_metrics(agent.dtype), jnp.ones((len(CHECKED),), jnp.bool_)
+
+    agent_state, m, ok = jax.lax.cond(t >= learning_starts, do_update, no_update, s.agent)
     bad_step = jnp.where((s.bad_step < 0) & ~ok, t.astype(jnp.int32), s.bad_step)
     return s._replace(agent=agent_state, bad_step=bad_step), m
 

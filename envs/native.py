@@ -15,8 +15,9 @@ rounded to float32). One step is Gymnasium's ``do_simulation``: ``ctrl = action`
 a reset is Gymnasium's ``mj_resetData`` + ``set_state`` (``mj_forward``). In float64 this gives
 Gymnasium's observations, rewards and terminations bit for bit (tests/test_envs_native.py).
 
-Lanes are split into at most ``threads`` blocks stepped by a thread pool (MuJoCo releases the GIL
-inside ``mj_step``); ``threads`` defaults to the number of CPUs this process may use.
+Lanes are stepped serially, or, when a call carries enough work (many lanes, e.g. the evaluation's
+seeds × episodes), in at most ``threads`` blocks on a thread pool (MuJoCo releases the GIL inside
+``mj_step``); ``threads`` defaults to the number of CPUs this process may use.
 On a GPU the same code runs, but every step copies the lanes to the host and back (slow there:
 use the MJX backend on accelerators).
 """
@@ -25,6 +26,7 @@ from __future__ import annotations
 
 import os
 import threading
+import time
 from concurrent.futures import ThreadPoolExecutor
 from typing import Optional
 
@@ -80,6 +82,7 @@ class NativePhysics:
         # crashed); the lock serialises concurrent callbacks (two programs running at once)
         self._data = [mujoco.MjData(mj_model) for _ in range(self.threads)]
         self._lock = threading.Lock()
+        self._lane_seconds = None  # running estimate of one lane's serial step/reset time
 
     # ---------------------------------------------------------------- host side (NumPy, MuJoCo C)
 
@@ -115,12 +118,24 @@ class NativePhysics:
                 mujoco.mj_rnePostConstraint(m, d)
             self._outputs(d, out, i)
 
+    # the pool pays only for enough work per call (measured on a 2-core Zen 4: 5 lanes of
+    # HalfCheetah, ~0.2 ms of MuJoCo, 0.39 ms serial vs 0.60 ms pooled; 16 lanes of Walker2d,
+    # ~2 ms, 2.0 vs 1.7 ms; docs/BENCHMARKS.md §4)
+    POOL_MIN_SECONDS = 1.5e-3
+
     def _run(self, fn, n: int, *args) -> dict:
-        """``fn(*args, out, lanes, mjdata)`` over lanes 0..n-1, in blocks on the thread pool."""
+        """``fn(*args, out, lanes, mjdata)`` over lanes 0..n-1: serially, or in blocks on the
+        thread pool when the serial estimate (``n`` × the measured seconds per lane) is at least
+        ``POOL_MIN_SECONDS``."""
         out = self._new_outputs(n)
         with self._lock:
-            if self._pool is None or n < 2:
+            serial = (self._pool is None or n < 2 or self._lane_seconds is None
+                      or n * self._lane_seconds < self.POOL_MIN_SECONDS)
+            if serial:
+                t0 = time.perf_counter()
                 fn(*args, out, range(n), self._data[0])
+                per_lane = (time.perf_counter() - t0) / n
+                self._lane_seconds = per_lane if self._lane_seconds is None else 0.9 * self._lane_seconds + 0.1 * per_lane
             else:
                 blocks = [range(b, n, self.threads) for b in range(min(self.threads, n))]
                 futures = [self._pool.submit(fn, *args, out, lanes, self._data[b]) for b, lanes in enumerate(blocks)]
@@ -137,22 +152,24 @@ class NativePhysics:
         else:
             out = self._run(self._step_lanes, a2.shape[0], _from_bits(a2), b2.astype(np.float64))
         exact = out["exact"]
-        return (_float64_bits(exact).reshape(*batch, -1),
-                exact.reshape(*batch, -1).astype(self.dtype),
-                out["xpos"].reshape(*batch, self.nbody, 3).astype(self.dtype),
-                out["cfrc_ext"].reshape(*batch, self.nbody, 6).astype(self.dtype))
+        n = exact.shape[0]
+        view = np.concatenate([exact[:, :self.nq + self.nv], out["xpos"].reshape(n, -1),
+                               out["cfrc_ext"].reshape(n, -1)], axis=1)
+        return _float64_bits(exact).reshape(*batch, -1), view.astype(self.dtype).reshape(*batch, -1)
 
     # ---------------------------------------------------------------- JAX side
     def _call(self, kind: str, a: jax.Array, b: jax.Array) -> NativeData:
-        n = self.nq + 2 * self.nv
-        shapes = (jax.ShapeDtypeStruct((2 * n,), jnp.uint32), jax.ShapeDtypeStruct((n,), self.dtype),
-                  jax.ShapeDtypeStruct((self.nbody, 3), self.dtype),
-                  jax.ShapeDtypeStruct((self.nbody, 6), self.dtype))
-        exact, flat, xpos, cfrc = jax.pure_callback(
+        # two results per call (each costs a conversion): the exact state's bits, and one vector
+        # of what the task reads: qpos, qvel, xpos (flat), cfrc_ext (flat), in the env dtype
+        nq, nv, nb = self.nq, self.nv, self.nbody
+        shapes = (jax.ShapeDtypeStruct((2 * (nq + 2 * nv),), jnp.uint32),
+                  jax.ShapeDtypeStruct((nq + nv + 9 * nb,), self.dtype))
+        exact, view = jax.pure_callback(
             lambda x, y: self._host(kind, np.asarray(x), np.asarray(y)), shapes, a, b,
             vmap_method="broadcast_all")
-        return NativeData(exact=exact, qpos=flat[:self.nq], qvel=flat[self.nq:self.nq + self.nv],
-                          xpos=xpos, cfrc_ext=cfrc)
+        return NativeData(exact=exact, qpos=view[:nq], qvel=view[nq:nq + nv],
+                          xpos=view[nq + nv:nq + nv + 3 * nb].reshape(nb, 3),
+                          cfrc_ext=view[nq + nv + 3 * nb:].reshape(nb, 6))
 
     def reset(self, qpos: jax.Array, qvel: jax.Array) -> NativeData:
         """Gymnasium's reset physics: ``mj_resetData``, ``qpos``/``qvel`` set, ``mj_forward``."""
