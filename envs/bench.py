@@ -96,27 +96,26 @@ def bench_env(env_id: str, batches: Sequence[int], scan_len: int, repeats: int,
     from swim_jax.timing import time_interleaved
 
     variants = physics_variants(backends, solver_impls)
-    env_by_impl = {v: _make_variant(env_id, v, options) for v in variants}
-    native_env = env_by_impl[variants[0]]
-    solver_impls = variants
+    env_by_variant = {v: _make_variant(env_id, v, options) for v in variants}
+    native_env = env_by_variant[variants[0]]
     rows = []
     for batch in batches:
         candidates, compile_s = {"native": native_rollout(native_env, native_steps)}, {}
-        for impl, env in env_by_impl.items():
+        for variant, env in env_by_variant.items():
             f, states, key = make_rollout(env, batch, scan_len, shard)
             t0 = time.perf_counter()
             compiled = f.lower(states, key).compile()
-            compile_s[impl] = time.perf_counter() - t0
-            candidates[impl] = lambda fn=compiled, st=states, k=key: fn(st, k)
+            compile_s[variant] = time.perf_counter() - t0
+            candidates[variant] = lambda fn=compiled, st=states, k=key: fn(st, k)
         timings = time_interleaved(candidates, repeats=repeats, warmup=1)
         native_all = [native_steps / t for t in timings["native"].samples]
         nat_med = statistics.median(native_all)
-        for impl in solver_impls:
-            steps_all = [batch * scan_len / t for t in timings[impl].samples]
+        for variant in variants:
+            steps_all = [batch * scan_len / t for t in timings[variant].samples]
             med = statistics.median(steps_all)
-            row = dict(env=env_id, batch=batch, scan_len=scan_len, physics=impl,
+            row = dict(env=env_id, batch=batch, scan_len=scan_len, physics=variant,
                        ms_per_batched_step=round(1000 * batch / med, 4),
-                       compile_s=round(compile_s[impl], 2),
+                       compile_s=round(compile_s[variant], 2),
                        steps_per_s=round(med, 1), native_steps_per_s=round(nat_med, 1),
                        ratio_vs_one_native_core=round(med / nat_med, 4),
                        steps_all=[round(x, 1) for x in steps_all],

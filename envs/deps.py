@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import os
 import sys
 import warnings
 from importlib import metadata
@@ -49,8 +50,6 @@ def version_mismatch(installed: dict[str, str | None]) -> str | None:
 def check_versions() -> str | None:
     """Warn (``UserWarning``) if the installed versions differ from :data:`TESTED`; return the
     message, or None when they match. Set ``SWIM_JAX_SKIP_VERSION_CHECK=1`` to skip."""
-    import os
-
     if os.environ.get(ENV_SKIP_CHECK):
         return None
     msg = version_mismatch(installed_versions())

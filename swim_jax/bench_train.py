@@ -92,18 +92,6 @@ def update_flops(agent) -> float:
     return ((d - 1) * counts[0] + counts[1]) / d
 
 
-def _run_chunk(chunk_fn, states, t0: int, chunk_steps: int, per_call: int, sharding):
-    """``chunk_steps`` steps from step ``t0`` as calls of ``per_call`` steps (as the training loop
-    makes them; ``--variant progress_steps=N`` times the cost of splitting a chunk)."""
-    import jax.numpy as jnp
-
-    from swim_jax.sharding import place
-
-    for j in range(chunk_steps // per_call):
-        states = place(chunk_fn(states, jnp.asarray(t0 + j * per_call, jnp.int32))[0], sharding)
-    return states
-
-
 def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overrides=(), log=print,
             shard: str = "auto", variants=(), with_roofline: bool = False) -> dict:
     """Compile one program per (lane count, placement, variant), then time ``repeats`` interleaved
@@ -127,17 +115,21 @@ def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overr
                 candidates.append((L, None, v))
             if shard in ("auto", "both") and sh is not None:
                 candidates.append((L, sh, v))
-    progs, states, compile_s, per_call = {}, {}, {}, {}
+    progs, states, compile_s, cfgs = {}, {}, {}, {}
+    quiet = lambda _line: None
+
+    def run_chunk(c, st, index):  # as the training loop runs it (calls of progress_steps steps)
+        return jax.block_until_ready(train.train_chunk(cfgs[c], progs[c].chunk_fn, st, index, (), c[1], quiet)[0])
+
     for c in candidates:
         L, sh, v = c
-        cfg = dataclasses.replace(variant_cfgs[v], seeds=L, pad_single_seed=False)
-        prog = train.programs(cfg)
-        per_call[c] = cfgmod.steps_per_call(cfg)  # a chunk = several calls with progress_steps < chunk
+        cfgs[c] = dataclasses.replace(variant_cfgs[v], seeds=L, pad_single_seed=False)
+        progs[c] = prog = train.programs(cfgs[c])
         st = place(prog.init_fn(jnp.asarray(0, jnp.uint32), jnp.arange(L, dtype=jnp.int32)), sh)
         t0 = time.perf_counter()
-        st = jax.block_until_ready(_run_chunk(prog.chunk_fn, st, 0, chunk_steps, per_call[c], sh))
+        st = run_chunk(c, st, 0)
         compile_s[c] = time.perf_counter() - t0
-        progs[c], states[c] = prog, st
+        states[c] = st
         log(f"lanes {L}{' sharded' if sh else ''}{' ' + v if v else ''}: compiled + first chunk {compile_s[c]:.1f} s")
     # one jitted chunk serves every lane count and placement of a config (one executable each), so
     # "no recompilation" means: no executable added once every candidate has run its first chunk
@@ -146,8 +138,7 @@ def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overr
     for r in range(repeats):
         for c in candidates:
             t0 = time.perf_counter()
-            states[c] = jax.block_until_ready(_run_chunk(progs[c].chunk_fn, states[c], (r + 1) * chunk_steps,
-                                                         chunk_steps, per_call[c], c[1]))
+            states[c] = run_chunk(c, states[c], r + 1)
             times[c].append(time.perf_counter() - t0)
     flops = update_flops(progs[candidates[0]].agent)
     roof = _rooflines(config, (*bench, *overrides), progs[candidates[0]].agent, log) if with_roofline else None

@@ -394,7 +394,7 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
         if c == start_chunk:
             say(f"compiling the training program and running its first {cfg.eval_freq} steps "
                 f"(compiles take seconds to minutes on a CPU; cached for the next run)")
-        states, chunk_metrics = _train_chunk(cfg, chunk_fn, states, c, sweep_args, sharding, say)
+        states, chunk_metrics = train_chunk(cfg, chunk_fn, states, c, sweep_args, sharding, say)
         bad = np.asarray(states.bad_step)
         dt = time.time() - t0
         if first_chunk_time is None:
@@ -459,7 +459,7 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
 PROGRESS_EVERY_S = 30.0
 
 
-def _train_chunk(cfg: Config, chunk_fn, states, c: int, sweep_args, sharding, say):
+def train_chunk(cfg: Config, chunk_fn, states, c: int, sweep_args, sharding, say):
     """Chunk ``c`` (``eval_freq`` steps) as calls of ``steps_per_call(cfg)`` steps each; between
     calls, at most every ``PROGRESS_EVERY_S`` seconds, ``say`` gets the step, env-steps/s and the
     chunk's ETA. Re-placing keeps the input sharding identical every call (no recompilation).
