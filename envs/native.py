@@ -15,9 +15,10 @@ rounded to float32). One step is Gymnasium's ``do_simulation``: ``ctrl = action`
 a reset is Gymnasium's ``mj_resetData`` + ``set_state`` (``mj_forward``). In float64 this gives
 Gymnasium's observations, rewards and terminations bit for bit (tests/test_envs_native.py).
 
-Lanes are stepped serially, or, when a call carries enough work (many lanes, e.g. the evaluation's
-seeds × episodes), in at most ``threads`` blocks on a thread pool (MuJoCo releases the GIL inside
-``mj_step``); ``threads`` defaults to the number of CPUs this process may use.
+All lanes of a call are one :class:`mujoco.batch.Batch` (MuJoCo's own C++ loop over
+simulations, bit-identical to one MjData per lane at any thread count), so a call costs one
+Python round trip, not one per lane. The lanes go to ``threads`` threads (default: the CPUs this
+process may use) when a call carries at least ``POOL_MIN_SECONDS`` of physics, else one.
 On a GPU the same code runs, but every step copies the lanes to the host and back (slow there:
 use the MJX backend on accelerators).
 """
@@ -27,13 +28,13 @@ from __future__ import annotations
 import os
 import threading
 import time
-from concurrent.futures import ThreadPoolExecutor
-from typing import Optional
+from typing import Dict, Optional
 
 import jax
 import jax.numpy as jnp
 import mujoco
 import numpy as np
+from mujoco import batch as mujoco_batch
 from flax import struct
 
 
@@ -76,85 +77,42 @@ class NativePhysics:
         self.dtype = jnp.dtype(dtype)
         self.nq, self.nv, self.nbody = mj_model.nq, mj_model.nv, mj_model.nbody
         self.threads = max(1, int(threads or len(os.sched_getaffinity(0))))
-        self._pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
-        # one scratch MjData per block of lanes, owned here (not thread-local: XLA runs callbacks
-        # on threads whose Python state is torn down after each call, and freeing an MjData there
-        # crashed); the lock serialises concurrent callbacks (two programs running at once)
-        self._data = [mujoco.MjData(mj_model) for _ in range(self.threads)]
+        # one mujoco.batch.Batch per lane count, owned here (freed with the env, never on XLA's
+        # callback threads, whose Python state is torn down after each call); the lock
+        # serialises concurrent callbacks (two programs running at once share a Batch)
+        self._batches: Dict[int, _LaneBatch] = {}
         self._lock = threading.Lock()
-        self._lane_seconds = None  # running estimate of one lane's serial step/reset time
+        self.step_seconds = _time_one_step(mj_model, self.frame_skip)
+
+    # MuJoCo's thread pool pays only for enough work per call: 5 lanes of HalfCheetah (0.15 ms of
+    # physics) ran 1.23x slower on 2 threads than on one, Swimmer (0.3 ms) 0.91x, Walker2d
+    # (0.5 ms) 0.90x (2-core Zen 4, docs/BENCHMARKS.md section 4)
+    POOL_MIN_SECONDS = 0.2e-3
 
     # ---------------------------------------------------------------- host side (NumPy, MuJoCo C)
-
-    def _outputs(self, d: mujoco.MjData, out: dict, i: int) -> None:
-        out["exact"][i] = np.concatenate([d.qpos, d.qvel, d.qacc_warmstart])
-        out["xpos"][i] = d.xpos
-        out["cfrc_ext"][i] = d.cfrc_ext
-
-    def _new_outputs(self, n: int) -> dict:
-        return {"exact": np.empty((n, self.nq + 2 * self.nv)),
-                "xpos": np.empty((n, self.nbody, 3)),
-                "cfrc_ext": np.zeros((n, self.nbody, 6))}
-
-    def _reset_lanes(self, qpos, qvel, out, lanes, d: mujoco.MjData) -> None:
-        m = self.model
-        for i in lanes:
-            mujoco.mj_resetData(m, d)
-            d.qpos[:] = qpos[i]
-            d.qvel[:] = qvel[i]
-            mujoco.mj_forward(m, d)
-            self._outputs(d, out, i)
-
-    def _step_lanes(self, exact, ctrl, out, lanes, d: mujoco.MjData) -> None:
-        m = self.model
-        nq, nv = self.nq, self.nv
-        for i in lanes:
-            d.qpos[:] = exact[i, :nq]
-            d.qvel[:] = exact[i, nq:nq + nv]
-            d.qacc_warmstart[:] = exact[i, nq + nv:]
-            d.ctrl[:] = ctrl[i]
-            mujoco.mj_step(m, d, nstep=self.frame_skip)
-            if self.post_constraint:
-                mujoco.mj_rnePostConstraint(m, d)
-            self._outputs(d, out, i)
-
-    # the pool pays only for enough work per call (measured on a 2-core Zen 4: 5 lanes of
-    # HalfCheetah, ~0.2 ms of MuJoCo, 0.39 ms serial vs 0.60 ms pooled; 16 lanes of Walker2d,
-    # ~2 ms, 2.0 vs 1.7 ms; docs/BENCHMARKS.md §4)
-    POOL_MIN_SECONDS = 1.5e-3
-
-    def _run(self, fn, n: int, *args) -> dict:
-        """``fn(*args, out, lanes, mjdata)`` over lanes 0..n-1: serially, or in blocks on the
-        thread pool when the serial estimate (``n`` × the measured seconds per lane) is at least
-        ``POOL_MIN_SECONDS``."""
-        out = self._new_outputs(n)
-        with self._lock:
-            serial = (self._pool is None or n < 2 or self._lane_seconds is None
-                      or n * self._lane_seconds < self.POOL_MIN_SECONDS)
-            if serial:
-                t0 = time.perf_counter()
-                fn(*args, out, range(n), self._data[0])
-                per_lane = (time.perf_counter() - t0) / n
-                self._lane_seconds = per_lane if self._lane_seconds is None else 0.9 * self._lane_seconds + 0.1 * per_lane
-            else:
-                blocks = [range(b, n, self.threads) for b in range(min(self.threads, n))]
-                futures = [self._pool.submit(fn, *args, out, lanes, self._data[b]) for b, lanes in enumerate(blocks)]
-                for f in futures:
-                    f.result()
-        return out
+    def _batch(self, n: int) -> "_LaneBatch":
+        if n not in self._batches:
+            pooled = n * self.step_seconds >= self.POOL_MIN_SECONDS
+            nthread = min(self.threads, n) if pooled else 1
+            self._batches[n] = _LaneBatch(self.model, n, nthread, self.post_constraint)
+        return self._batches[n]
 
     def _host(self, kind: str, a: np.ndarray, b: np.ndarray):
+        """Host half of one call: ``kind`` "reset" (a = qpos, b = qvel) or "step" (a = exact
+        bits, b = ctrl), every lane at once; returns (exact bits, the task's view), batched."""
         batch = a.shape[:-1]
         a2 = a.reshape(-1, a.shape[-1])
         b2 = b.reshape(-1, b.shape[-1])
-        if kind == "reset":
-            out = self._run(self._reset_lanes, a2.shape[0], a2.astype(np.float64), b2.astype(np.float64))
-        else:
-            out = self._run(self._step_lanes, a2.shape[0], _from_bits(a2), b2.astype(np.float64))
-        exact = out["exact"]
-        n = exact.shape[0]
-        view = np.concatenate([exact[:, :self.nq + self.nv], out["xpos"].reshape(n, -1),
-                               out["cfrc_ext"].reshape(n, -1)], axis=1)
+        n = a2.shape[0]
+        with self._lock:
+            lanes = self._batch(n)
+            if kind == "reset":
+                lanes.reset(a2, b2)
+            else:
+                lanes.step(_from_bits(a2), b2, self.frame_skip)
+            exact = np.concatenate([lanes.qpos, lanes.qvel, lanes.qacc_warmstart], axis=1)
+            view = np.concatenate([lanes.qpos, lanes.qvel, lanes.xpos.reshape(n, -1),
+                                   lanes.cfrc_ext.reshape(n, -1)], axis=1)
         return _float64_bits(exact).reshape(*batch, -1), view.astype(self.dtype).reshape(*batch, -1)
 
     # ---------------------------------------------------------------- JAX side
@@ -190,3 +148,66 @@ class NativePhysics:
         z = lambda *s: jnp.zeros(s, self.dtype)
         return NativeData(exact=jnp.zeros((2 * n,), jnp.uint32), qpos=z(self.nq), qvel=z(self.nv),
                           xpos=z(self.nbody, 3), cfrc_ext=z(self.nbody, 6))
+
+
+def _time_one_step(model: mujoco.MjModel, frame_skip: int, repeats: int = 30) -> float:
+    """Fastest of ``repeats`` env steps (``frame_skip`` mj_steps from the model's reference pose,
+    after as many warm-up steps), in seconds: the work per lane that decides whether a call's
+    lanes go to MuJoCo's thread pool."""
+    d = mujoco.MjData(model)
+    mujoco.mj_step(model, d, nstep=repeats * frame_skip)
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        mujoco.mj_step(model, d, nstep=frame_skip)
+        times.append(time.perf_counter() - t0)
+    return min(times)
+
+
+class _LaneBatch:
+    """``n`` lanes of one model in a :class:`mujoco.batch.Batch` (MuJoCo's C++ thread pool over
+    simulations; bit-identical to stepping one MjData per lane at any thread count), with live
+    (n, ...) views of what a call writes (qpos, qvel, ctrl, qacc_warmstart) and reads (the same,
+    xpos, cfrc_ext). Models that need contact forces keep one MjData per lane (persistent) and
+    run ``mj_rnePostConstraint`` on each after a step, as Gymnasium does; for the others
+    ``cfrc_ext`` stays zero."""
+
+    def __init__(self, model: mujoco.MjModel, n: int, nthread: int, post_constraint: bool):
+        self.model = model
+        self.sims = mujoco_batch.Batch(model, nsim=n, nthread=nthread, persistent=post_constraint)
+        for name in ("qpos", "qvel", "qacc_warmstart", "ctrl", "xpos"):
+            setattr(self, name, self.sims.bind(name))
+        self.post_constraint = post_constraint
+        self.cfrc_ext = np.zeros((n, model.nbody, 6))
+        self._scratch = mujoco.MjData(model) if post_constraint else None
+
+    def reset(self, qpos: np.ndarray, qvel: np.ndarray) -> None:
+        """Gymnasium's reset physics per lane: ``mj_resetData``, set qpos/qvel, ``mj_forward``."""
+        self.sims.reset(stage=mujoco.mjtStage.mjSTAGE_NONE)
+        self.qpos[:] = qpos
+        self.qvel[:] = qvel
+        self.sims.forward()
+        self._contact_forces(after_step=False)
+
+    def step(self, exact: np.ndarray, ctrl: np.ndarray, frame_skip: int) -> None:
+        """Gymnasium's ``do_simulation`` per lane from the float64 state rows ``exact``."""
+        nq, nv = self.qpos.shape[1], self.qvel.shape[1]
+        self.qpos[:] = exact[:, :nq]
+        self.qvel[:] = exact[:, nq:nq + nv]
+        self.qacc_warmstart[:] = exact[:, nq + nv:]
+        self.ctrl[:] = ctrl
+        self.sims.step(nstep=frame_skip)
+        self._contact_forces(after_step=True)
+
+    def _contact_forces(self, after_step: bool) -> None:
+        # contact forces exist only where a task reads them: Gymnasium runs mj_rnePostConstraint
+        # after mj_step (a reset shows what mj_forward left); done on a copy of each lane's
+        # persistent MjData
+        if not self.post_constraint:
+            return
+        d = self._scratch
+        for i in range(self.cfrc_ext.shape[0]):
+            self.sims.get_data(i, d)
+            if after_step:
+                mujoco.mj_rnePostConstraint(self.model, d)
+            self.cfrc_ext[i] = d.cfrc_ext

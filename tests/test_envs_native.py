@@ -151,11 +151,29 @@ def test_reward_arithmetic_rounds_as_numpy(shape, x64):
 
 
 def test_a_one_lane_program_with_other_outputs_runs_repeatedly():
-    """Regression: scratch MjData kept in a threading.local was freed on XLA's callback thread
-    without a Python thread state, crashing the process (seen with one vmapped lane plus another
-    output, as the training program's init has)."""
+    """One vmapped lane plus another output (as the training program's init has), called
+    repeatedly: the host-side MuJoCo objects live with the env, never on XLA's callback threads
+    (an MjData freed there, without a Python thread state, crashed the process)."""
     env = envs.make("Hopper-v5", backend="mujoco")
     f = jax.jit(jax.vmap(lambda k: (env.step(env.reset(k), jnp.zeros(env.action_size)), jnp.zeros((100, 11)))))
     for seed in range(3):
         st, _ = f(jax.random.split(jax.random.PRNGKey(seed), 1))
         assert st.obs.shape == (1, 11) and np.all(np.isfinite(np.asarray(st.obs)))
+
+
+def test_lanes_on_mujocos_thread_pool_equal_lanes_stepped_serially():
+    """8 lanes × 30 steps of HalfCheetah on 2 threads and on one: the same bits, resets included."""
+    def run(threads: int, pool_min_seconds: float):
+        env = envs.make("HalfCheetah-v5", backend="mujoco")
+        native = env.native_physics
+        native.threads, native.POOL_MIN_SECONDS = threads, pool_min_seconds
+        keys = jax.random.split(jax.random.PRNGKey(3), 8)
+        actions = jax.random.uniform(jax.random.PRNGKey(4), (30, 8, env.action_size), minval=-1, maxval=1)
+        step = jax.vmap(env.step)
+        f = jax.jit(lambda k, a: jax.lax.scan(lambda s, x: (step(s, x), s.pipeline_state.exact),
+                                              jax.vmap(env.reset)(k), a)[1])
+        out = np.asarray(f(keys, actions))
+        assert native._batches[8].sims.nthread == threads
+        return out
+
+    np.testing.assert_array_equal(run(2, 0.0), run(1, 1.0))
