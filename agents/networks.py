@@ -17,6 +17,7 @@ activations stay in the network dtype. None (default): plain matmuls in the netw
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from typing import Any, Mapping, Sequence
 
@@ -55,22 +56,39 @@ def dense_precision_options(dtype: Any, matmul_dtype: Any = None) -> dict:
                 dot_general=functools.partial(lax.dot_general, preferred_element_type=dtype))
 
 
+@dataclasses.dataclass(frozen=True)
+class NetworkOptions:
+    """What the actor and the critics share: hidden ``widths``, the ``activation`` registry name,
+    its parameters (e.g. ``{"k": 0.5}``, stored as sorted ``(name, value)`` pairs so the options
+    hash and compare by value; a value may be a traced array inside a sweep, which does not hash),
+    ``learnable`` (each hidden layer learns its own activation parameters), the parameter ``dtype``
+    and the optional ``matmul_dtype`` (see the module docstring)."""
+
+    hidden: tuple[int, ...] = (256, 256)
+    activation: str = "relu"
+    activation_params: Mapping[str, Any] | tuple[tuple[str, Any], ...] = ()
+    learnable: bool = False
+    dtype: Any = jnp.float32
+    matmul_dtype: Any = None
+
+    def __post_init__(self):
+        # normalise the mutable, unordered forms callers pass (list widths, dict parameters)
+        object.__setattr__(self, "hidden", tuple(self.hidden))
+        object.__setattr__(self, "activation_params", tuple(sorted(dict(self.activation_params or {}).items())))
+
+
 class _Body(nn.Module):
     """Hidden stack + linear head; the activation module is created fresh in every hidden layer."""
 
-    hidden: Sequence[int]
+    options: NetworkOptions
     out_dim: int
-    activation: str
-    activation_params: Mapping[str, float] | None
-    learnable: bool
-    dtype: Any
-    matmul_dtype: Any = None
 
     @nn.compact
     def __call__(self, x: Array) -> Array:
-        x = x.astype(self.dtype)
-        precision = dense_precision_options(self.dtype, self.matmul_dtype)
-        for i, width in enumerate(self.hidden):
+        o = self.options
+        x = x.astype(o.dtype)
+        precision = dense_precision_options(o.dtype, o.matmul_dtype)
+        for i, width in enumerate(o.hidden):
             x = nn.Dense(
                 width,
                 **precision,
@@ -79,9 +97,9 @@ class _Body(nn.Module):
                 name=f"dense_{i}",
             )(x)
             x = Activation(
-                kind=self.activation,
-                params=dict(self.activation_params or {}),
-                learnable=self.learnable,
+                kind=o.activation,
+                params=dict(o.activation_params),
+                learnable=o.learnable,
                 name=f"act_{i}",
             )(x)
         return nn.Dense(
@@ -101,61 +119,35 @@ class Actor(nn.Module):
 
     action_low: Sequence[float]
     action_high: Sequence[float]
-    hidden: Sequence[int] = (256, 256)
-    activation: str = "relu"
-    activation_params: Mapping[str, float] | None = None
-    learnable: bool = False
-    dtype: Any = jnp.float32
-    matmul_dtype: Any = None
+    options: NetworkOptions = NetworkOptions()
 
     @nn.compact
     def __call__(self, obs: Array) -> Array:
-        low = jnp.asarray(self.action_low, self.dtype)
-        high = jnp.asarray(self.action_high, self.dtype)
-        out = _Body(
-            self.hidden,
-            len(self.action_low),
-            self.activation,
-            self.activation_params,
-            self.learnable,
-            self.dtype,
-            self.matmul_dtype,
-            name="body",
-        )(obs)
+        dtype = self.options.dtype
+        low = jnp.asarray(self.action_low, dtype)
+        high = jnp.asarray(self.action_high, dtype)
+        out = _Body(self.options, len(self.action_low), name="body")(obs)
         return jnp.tanh(out) * (high - low) / 2 + (high + low) / 2
 
 
 class _Critic(nn.Module):
     """One Q network: Q(s, a) = MLP([s; a]) → scalar per row."""
 
-    hidden: Sequence[int]
-    activation: str
-    activation_params: Mapping[str, float] | None
-    learnable: bool
-    dtype: Any
-    matmul_dtype: Any = None
+    options: NetworkOptions
 
     @nn.compact
     def __call__(self, obs: Array, action: Array) -> Array:
-        x = jnp.concatenate([obs.astype(self.dtype), action.astype(self.dtype)], axis=-1)
-        q = _Body(
-            self.hidden, 1, self.activation, self.activation_params, self.learnable, self.dtype,
-            self.matmul_dtype, name="body",
-        )(x)
-        return q[..., 0]
+        dtype = self.options.dtype
+        x = jnp.concatenate([obs.astype(dtype), action.astype(dtype)], axis=-1)
+        return _Body(self.options, 1, name="body")(x)[..., 0]
 
 
 class TwinCritic(nn.Module):
     """Twin critics (Q₁, Q₂) as one module: parameters stacked on a leading axis of size
     ``num_critics`` (default 2), independently initialised; ``__call__(obs, action) -> (2, ...)``."""
 
-    hidden: Sequence[int] = (256, 256)
-    activation: str = "relu"
-    activation_params: Mapping[str, float] | None = None
-    learnable: bool = False
-    dtype: Any = jnp.float32
+    options: NetworkOptions = NetworkOptions()
     num_critics: int = 2
-    matmul_dtype: Any = None
 
     @nn.compact
     def __call__(self, obs: Array, action: Array) -> Array:
@@ -167,7 +159,4 @@ class TwinCritic(nn.Module):
             out_axes=0,
             axis_size=self.num_critics,
         )
-        return vmapped(
-            self.hidden, self.activation, self.activation_params, self.learnable, self.dtype,
-            self.matmul_dtype, name="critics",
-        )(obs, action)
+        return vmapped(self.options, name="critics")(obs, action)

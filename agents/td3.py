@@ -24,7 +24,7 @@ import jax
 import jax.numpy as jnp
 import optax
 
-from agents.networks import Actor, TwinCritic
+from agents.networks import Actor, NetworkOptions, TwinCritic
 from agents.replay import Transition
 
 Array = jax.Array
@@ -130,10 +130,11 @@ class TD3:
     def action_dim(self) -> int:
         return len(self.action_low)
 
-    def _network_options(self) -> dict:
+    @property
+    def network_options(self) -> NetworkOptions:
         """Options shared by the actor and the critics: widths, activation, precision."""
         a = self.config.activation
-        return dict(
+        return NetworkOptions(
             hidden=tuple(self.config.hidden),
             activation=a.name,
             activation_params=a.params(),
@@ -144,16 +145,18 @@ class TD3:
 
     @property
     def actor_net(self) -> Actor:
-        return Actor(action_low=self.action_low, action_high=self.action_high, **self._network_options())
+        """The policy network μ over this agent's action range."""
+        return Actor(self.action_low, self.action_high, self.network_options)
 
     @property
     def critic_net(self) -> TwinCritic:
-        return TwinCritic(**self._network_options())
+        """The twin critics (Q₁, Q₂)."""
+        return TwinCritic(self.network_options)
 
     @property
     def q1_net(self) -> TwinCritic:
         """Q₁ alone: applied to the first slice of the twin critics' stacked parameters."""
-        return TwinCritic(num_critics=1, **self._network_options())
+        return TwinCritic(self.network_options, num_critics=1)
 
     @property
     def actor_tx(self) -> optax.GradientTransformation:
@@ -267,8 +270,3 @@ class TD3:
         )
         new = TD3State(actor, critic, actor_target, critic_target, actor_opt, critic_opt)
         return new, UpdateMetrics(l_q, l_mu, q_mean, jnp.asarray(update_actor, jnp.bool_))
-
-
-def replace(cfg, **changes):
-    """``dataclasses.replace`` re-exported for convenience."""
-    return dataclasses.replace(cfg, **changes)

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from agents import replay
-from agents.networks import Actor, TwinCritic
+from agents.networks import Actor, NetworkOptions, TwinCritic
 from agents.td3 import TD3, ActivationConfig, TD3Config
 
 OBS, ACT, B = 5, 3, 16
@@ -160,13 +160,13 @@ def test_td_target_truncation_bootstraps_termination_does_not():
 
 
 def test_networks_shapes_ranges_and_twin_independence():
-    actor = Actor(LOW, HIGH, hidden=(16, 16), activation="swim", activation_params={"k": 0.5})
+    actor = Actor(LOW, HIGH, NetworkOptions(hidden=(16, 16), activation="swim", activation_params={"k": 0.5}))
     pa = actor.init(jax.random.PRNGKey(0), jnp.zeros((1, OBS)))
     big = 100.0 * jax.random.normal(jax.random.PRNGKey(1), (64, OBS))
     a = actor.apply(pa, big)
     assert a.shape == (64, ACT)
     assert np.all(np.asarray(a) >= np.asarray(LOW)) and np.all(np.asarray(a) <= np.asarray(HIGH))
-    critic = TwinCritic(hidden=(16, 16), activation="relu")
+    critic = TwinCritic(NetworkOptions(hidden=(16, 16), activation="relu"))
     pc = critic.init(jax.random.PRNGKey(0), jnp.zeros((1, OBS)), jnp.zeros((1, ACT)))
     q = critic.apply(pc, big, a)
     assert q.shape == (2, 64)
@@ -176,6 +176,22 @@ def test_networks_shapes_ranges_and_twin_independence():
     assert float(jnp.max(jnp.abs(k0))) <= 1 / np.sqrt(OBS + ACT) + 1e-7
     hk = pc["params"]["critics"]["body"]["head"]["kernel"]
     assert float(jnp.max(jnp.abs(hk))) <= 1 / 4 + 1e-7
+
+
+def test_network_options_compare_by_value_and_keep_the_parameter_layout():
+    """NetworkOptions hash and compare by value (list widths and dict parameters normalised), and
+    the parameter tree keeps its names (checkpoints and final_policy.npz files store these paths)."""
+    a = NetworkOptions(hidden=[8, 8], activation="swim", activation_params={"k": 0.5}, learnable=True)
+    b = NetworkOptions(hidden=(8, 8), activation="swim", activation_params=(("k", 0.5),), learnable=True)
+    assert a == b and hash(a) == hash(b) and a.hidden == (8, 8)
+    cfg = TD3Config(hidden=(8, 8), activation=ActivationConfig(name="swim", k=0.5, learnable=True))
+    st = TD3(cfg, OBS, (-1.0,) * ACT, (1.0,) * ACT).init(jax.random.PRNGKey(0))
+    paths = lambda tree: sorted("/".join(str(getattr(k, "key", k)) for k in kp)
+                                for kp, _ in jax.tree_util.tree_flatten_with_path(tree)[0])
+    layers = [f"{m}/{p}" for m, ps in [("act_0", ["k"]), ("act_1", ["k"]), ("dense_0", ["bias", "kernel"]),
+                                      ("dense_1", ["bias", "kernel"]), ("head", ["bias", "kernel"])] for p in ps]
+    assert paths(st.actor) == [f"params/body/{l}" for l in layers]
+    assert paths(st.critic) == [f"params/critics/body/{l}" for l in layers]
 
 
 def test_learnable_activation_is_a_per_layer_param_that_trains():
@@ -200,7 +216,7 @@ def test_bfloat16_matmuls_round_inputs_and_weights_and_accumulate_in_float32():
     import ml_dtypes
 
     bf16 = lambda a: np.asarray(np.asarray(a, np.float32).astype(ml_dtypes.bfloat16), np.float64)
-    actor = Actor(LOW, HIGH, hidden=(64, 64), activation="relu", matmul_dtype=jnp.bfloat16)
+    actor = Actor(LOW, HIGH, NetworkOptions(hidden=(64, 64), activation="relu", matmul_dtype=jnp.bfloat16))
     obs = jax.random.normal(jax.random.PRNGKey(1), (32, OBS))
     pa = actor.init(jax.random.PRNGKey(0), obs)
     assert all(x.dtype == jnp.float32 for x in jax.tree.leaves(pa))
@@ -213,7 +229,7 @@ def test_bfloat16_matmuls_round_inputs_and_weights_and_accumulate_in_float32():
     ref = np.tanh(x.astype(np.float64)) * (hi - lo) / 2 + (hi + lo) / 2
     got = np.asarray(jax.jit(actor.apply)(pa, obs), np.float64)
     np.testing.assert_allclose(got, ref, atol=1e-5)
-    plain = np.asarray(Actor(LOW, HIGH, hidden=(64, 64), activation="relu").apply(pa, obs), np.float64)
+    plain = np.asarray(Actor(LOW, HIGH, NetworkOptions(hidden=(64, 64), activation="relu")).apply(pa, obs), np.float64)
     assert np.max(np.abs(plain - got)) > 1e-4  # the rounding is really applied
     agent = TD3(TD3Config(hidden=(16, 16), batch_size=4), OBS, (-1.0,) * ACT, (1.0,) * ACT,
                 matmul_dtype=jnp.bfloat16)
