@@ -41,9 +41,6 @@ class Checkpointer:
         """The newest complete checkpoint's step, or None."""
         return self.manager.latest_step()
 
-    def all_steps(self) -> list[int]:
-        return sorted(self.manager.all_steps())
-
     def restore(self, step: int, template):
         """Checkpoint ``step`` as a tree shaped like ``template`` (arrays or ShapeDtypeStructs)."""
         leaves, treedef = jax.tree.flatten(template)
@@ -59,4 +56,5 @@ class Checkpointer:
         return jax.tree.unflatten(treedef, out)
 
     def close(self) -> None:
+        """Stop the checkpoint manager (call once no save is needed any more)."""
         self.manager.close()

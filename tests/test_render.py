@@ -1,6 +1,7 @@
-"""python -m swim_jax.render: argument and run-folder errors (fast), video writing, GL skip; one slow
-end-to-end episode with a freshly initialised policy."""
+"""python -m swim_jax.render: argument and run-folder errors (fast), video writing, GL skip, frames
+drawn offscreen; one slow end-to-end episode with a freshly initialised policy."""
 
+import json
 import os
 import subprocess
 import sys
@@ -83,6 +84,37 @@ def test_no_gl_backend_is_skipped_with_a_clear_message(monkeypatch):
         render.choose_gl_backend()
     msg = str(e.value)
     assert "\n" not in msg and "no offscreen OpenGL backend" in msg and "libegl1" in msg and "libosmesa6" in msg
+
+
+FRAMES_SCRIPT = r"""
+import json, sys
+import numpy as np
+from swim_jax import render
+try:
+    gl = render.choose_gl_backend()
+except render.RenderSkipped as e:
+    print(json.dumps({"skip": str(e)})); sys.exit(0)
+import envs
+model = envs.make("Hopper-v5").mj_model
+qpos = np.stack([np.array(model.qpos0)] * 2)
+qpos[1, 2] = 0.3
+f = np.stack(render.render_frames(model, qpos, np.zeros((2, model.nv)), width=80, height=64))
+print(json.dumps({"shape": list(f.shape), "dtype": str(f.dtype), "std": float(f.std()),
+                  "differ": bool((f[0] != f[1]).any()), "gl": gl}))
+"""
+
+
+def test_render_frames_draws_each_pose_or_skips():
+    """render_frames after choose_gl_backend, in a fresh process (MuJoCo reads MUJOCO_GL when it is
+    imported): one 64×80 RGB frame per state, not blank, changed by the pose; skips with the GL
+    advice where no backend works. A failure after a working backend was found is an error."""
+    p = subprocess.run([sys.executable, "-c", FRAMES_SCRIPT], cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert p.returncode == 0, p.stderr[-2000:]
+    res = json.loads(p.stdout.strip().splitlines()[-1])
+    if "skip" in res:
+        pytest.skip(res["skip"])
+    assert res["shape"] == [2, 64, 80, 3] and res["dtype"] == "uint8", res
+    assert res["std"] > 0 and res["differ"], res  # a picture, and the pose changes it
 
 
 def test_write_gif(tmp_path):
