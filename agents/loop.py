@@ -204,42 +204,51 @@ def make_chunk_fn(agent: TD3, env, learning_starts: int, num_steps: int):
     return chunk
 
 
+def eval_reset_keys(eval_keys: Array, eval_index: Array, episodes: int) -> Array:
+    """Reset keys ``[S, episodes]`` of evaluation ``eval_index``: episode e of seed s starts from
+    ``split(fold_in(eval_keys[s], eval_index), episodes)[e]``."""
+    return jax.vmap(lambda k: jax.random.split(jax.random.fold_in(k, eval_index), episodes))(eval_keys)
+
+
+def episode_returns(env, reset_keys: Array, policy, max_steps: int) -> Array:
+    """Returns ``[S, E]`` of one episode per reset key (``reset_keys[S, E]``) under ``policy(obs[S, E, o],
+    t) -> actions[S, E, a]`` (t the int32 step index). All S×E envs step together in one
+    ``lax.while_loop`` until every one is done (or ``max_steps``); an episode's return sums its
+    rewards up to and including its terminal step (later rewards are masked, also if non-finite)."""
+    states = jax.vmap(jax.vmap(env.reset))(reset_keys)
+    done0 = jnp.zeros(reset_keys.shape[:2], jnp.bool_)
+    init = (jnp.zeros((), jnp.int32), states, done0, jnp.zeros(done0.shape, states.reward.dtype))
+
+    def cond(c):
+        t, _, done, _ = c
+        return (t < max_steps) & ~jnp.all(done)
+
+    def body(c):
+        t, st, done, ret = c
+        st = jax.vmap(jax.vmap(env.step))(st, policy(st.obs, t))
+        ret = ret + jnp.where(done, jnp.zeros_like(st.reward), st.reward)
+        return t + 1, st, done | (st.done > 0), ret
+
+    return jax.lax.while_loop(cond, body, init)[3]
+
+
 def make_eval_fn(agent: TD3, env, episodes: int, max_steps: int):
     """``evaluate(actor_params[S], eval_keys[S], eval_index, random_policy, hparams) -> returns[S, episodes]``.
 
-    Episode e of seed s starts from ``env.reset(split(fold_in(eval_key_s, eval_index), episodes)[e])``;
-    actions are μ_s(obs), or U(low, high) when the (traced, bool) ``random_policy`` is true, the
-    uniform baseline through the same compiled program. All S×episodes envs step together until
-    every one is done (or ``max_steps``); an episode's return sums its rewards up to and including
-    its terminal step (later rewards are masked, also if non-finite). ``hparams``: per-lane sweep
-    values ``{path: [S]}`` (the actor of a swept k uses its lane's k), empty/None for none."""
+    :func:`episode_returns` of the episodes from :func:`eval_reset_keys` with actions μ_s(obs).
+    ``hparams``: per-lane sweep values ``{path: [S]}`` (the actor of a swept k uses its lane's k),
+    empty/None for none. ``random_policy`` (traced bool, false in training) switches to U(low, high)
+    actions; it has no caller besides swim_jax/train.py passing false, and goes with that argument."""
 
     def evaluate(actor_params, eval_keys: Array, eval_index: Array, random_policy=False, hparams=None) -> Array:
-        keys = jax.vmap(lambda k: jax.random.split(jax.random.fold_in(k, eval_index), episodes))(eval_keys)
+        keys = eval_reset_keys(eval_keys, eval_index, episodes)
         act_keys = jax.vmap(jax.vmap(lambda k: jax.random.fold_in(k, 1)))(keys)
-        states = jax.vmap(jax.vmap(env.reset))(keys)
-        S = eval_keys.shape[0]
-        dt = states.reward.dtype
-        init = (jnp.zeros((), jnp.int32), states, jnp.zeros((S, episodes), jnp.bool_),
-                jnp.zeros((S, episodes), dt), act_keys)
 
-        def cond(c):
-            t, _, done, _, _ = c
-            return (t < max_steps) & ~jnp.all(done)
+        def policy(obs: Array, t: Array) -> Array:
+            a = jax.vmap(lambda p, o, h: agent.with_hparams(h).act(p, o))(actor_params, obs, hparams)
+            rand = jax.vmap(jax.vmap(lambda k: agent.random_action(jax.random.fold_in(k, t))))(act_keys)
+            return jnp.where(random_policy, rand, a)
 
-        def body(c):
-            t, st, done, ret, ak = c
-            split = jax.vmap(jax.vmap(jax.random.split))(ak)
-            ak, sub = split[:, :, 0], split[:, :, 1]
-            a_rand = jax.vmap(jax.vmap(agent.random_action))(sub)
-            a_pol = jax.vmap(lambda p, o, h: agent.with_hparams(h).act(p, o))(actor_params, st.obs, hparams)
-            a = jnp.where(random_policy, a_rand, a_pol)
-            st = jax.vmap(jax.vmap(env.step))(st, a)
-            ret = ret + jnp.where(done, jnp.zeros_like(st.reward), st.reward)
-            done = done | (st.done > 0)
-            return t + 1, st, done, ret, ak
-
-        _, _, _, ret, _ = jax.lax.while_loop(cond, body, init)
-        return ret
+        return episode_returns(env, keys, policy, max_steps)
 
     return evaluate

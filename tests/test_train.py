@@ -18,6 +18,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from agents import loop
 from swim_jax import config as cfgmod
 from swim_jax import train
 
@@ -159,14 +160,28 @@ def test_chunk_metrics_are_count_weighted_means():
     np.testing.assert_array_equal(both["updates"], w.sum(0))
 
 
+def uniform_random_returns(cfg, eval_keys, eval_index):
+    """Returns ``[seeds, eval_episodes]`` of U(low, high) actions from the episodes the run's
+    evaluation ``eval_index`` starts (the same reset keys), built from agents/loop.py's pieces."""
+    prog = train.programs(cfg)
+
+    def run(eval_keys, eval_index):
+        keys = loop.eval_reset_keys(eval_keys, eval_index, cfg.eval_episodes)
+        act_keys = jax.vmap(jax.vmap(lambda k: jax.random.fold_in(k, 1)))(keys)
+
+        def policy(obs, t):
+            return jax.vmap(jax.vmap(lambda k: prog.agent.random_action(jax.random.fold_in(k, t))))(act_keys)
+
+        return loop.episode_returns(prog.eval_env, keys, policy, cfg.env.max_episode_steps)
+
+    return np.asarray(jax.jit(run)(eval_keys, jnp.int32(eval_index)))
+
+
 def test_tiny_run_beats_random_policy_on_every_seed(vmapped):
     """Final deterministic-policy return > the uniform-random policy's mean return, per seed
-    (random baseline from the same compiled evaluation with the same keys, 5 episodes × 4 indices)."""
+    (random baseline from the evaluations' reset keys, 5 episodes × 4 indices)."""
     st = vmapped.states
-    rand = np.concatenate([
-        np.asarray(vmapped.eval_fn(st.agent.actor, st.eval_key, jnp.int32(j), jnp.asarray(True)))
-        for j in range(4)
-    ], axis=1)  # [seeds, 20]
+    rand = np.concatenate([uniform_random_returns(tiny(), st.eval_key, j) for j in range(4)], axis=1)  # [seeds, 20]
     final = vmapped.evaluations[-1].mean(axis=1)
     print("random per seed", rand.mean(1), "initial", vmapped.evaluations[0].mean(1), "final", final)
     assert np.all(final > rand.mean(axis=1) + 3 * rand.std(axis=1) / np.sqrt(rand.shape[1]))
