@@ -74,7 +74,7 @@ def update_flops(agent) -> float:
     step: ``((d - 1) · F_critic + F_critic+actor) / d`` with d = ``policy_freq``. Multiplying by
     updates per second gives the arithmetic rate the training program sustains in its updates.
     """
-    import jax
+    import jax  # after --host-devices: the JAX backend reads XLA_FLAGS when it starts
     import jax.numpy as jnp
 
     from agents.replay import Transition
@@ -92,22 +92,12 @@ def update_flops(agent) -> float:
     return ((d - 1) * counts[0] + counts[1]) / d
 
 
-def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overrides=(), log=print,
-            shard: str = "auto", variants=(), with_roofline: bool = False) -> dict:
-    """Compile one program per (lane count, placement, variant), then time ``repeats`` interleaved
-    chunks of each. ``variants``: extra override strings "k=v,k=v"; "" (always first) = none."""
-    import jax
-    import jax.numpy as jnp
+def _candidates(lanes: list[int], variant_cfgs: dict, shard: str) -> list[tuple]:
+    """(lanes, sharding or None, variant) for every program to time: each lane count on one
+    device and/or split over the devices (``shard``), each with every variant."""
+    from swim_jax.sharding import lane_sharding  # after --host-devices: the JAX backend reads XLA_FLAGS when it starts
 
-    from swim_jax import config as cfgmod
-    from swim_jax import train
-    from swim_jax.sharding import lane_sharding, place
-
-    bench = [f"eval_freq={chunk_steps}", f"total_steps={chunk_steps}", "learning_starts=0",
-             "replay_size=100000", f"progress_steps={chunk_steps}", *overrides]
-    variant_cfgs = {v: cfgmod.resolve(config, [*bench, *(v.split(",") if v else [])]) for v in ("", *variants)}
-    base = variant_cfgs[""]
-    candidates = []  # (lanes, sharding or None, variant)
+    candidates = []
     for L in lanes:
         sh, _why = lane_sharding(L)
         for v in variant_cfgs:
@@ -115,11 +105,50 @@ def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overr
                 candidates.append((L, None, v))
             if shard in ("auto", "both") and sh is not None:
                 candidates.append((L, sh, v))
+    return candidates
+
+
+def _row(c, times: list[float], compile_s: float, one_lane_s, chunk_steps: int, flops: float,
+         roof, executables: int, added: int) -> dict:
+    """One table row: medians and rates of candidate ``c`` = (lanes, sharding, variant) from its
+    chunk times; ``one_lane_s``: the median chunk time of the 1-lane program of its variant (or
+    None); ``executables``/``added``: its chunk's compiled executables and those added while timing."""
+    L, sh, v = c
+    med = statistics.median(times)
+    rate = flops * chunk_steps * L / med / 1e9
+    return {
+        "lanes": L, "devices": len(sh.mesh.devices.flat) if sh is not None else 1, "variant": v,
+        "median_s": med, "min_s": min(times), "max_s": max(times),
+        "env_steps_per_s": chunk_steps * L / med, "env_steps_per_s_per_lane": chunk_steps / med,
+        "ms_per_step": 1000 * med / chunk_steps, "compile_plus_first_chunk_s": compile_s,
+        "cost_ratio_vs_1": (med / (L * one_lane_s)) if one_lane_s else None,
+        "update_gflop_per_s": rate,
+        # the update's arithmetic rate over (cores × the one-core roofline of its own products)
+        "fraction_of_per_core_roofline": (rate / (roof["cores"] * roof["one_core"]["roofline_gflop_per_s"])) if roof else None,
+        # one executable per lane count and placement; none may be added while timing
+        "chunk_executables": executables, "compiles_while_timing": added,
+    }
+
+
+def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overrides=(), log=print,
+            shard: str = "auto", variants=(), with_roofline: bool = False) -> dict:
+    """Compile one program per (lane count, placement, variant), then time ``repeats`` interleaved
+    chunks of each. ``variants``: extra override strings "k=v,k=v"; "" (always first) = none."""
+    import jax  # after --host-devices: the JAX backend reads XLA_FLAGS when it starts
+    import jax.numpy as jnp
+
+    from swim_jax import config as cfgmod
+    from swim_jax import train
+    from swim_jax.sharding import place
+
+    bench = [f"eval_freq={chunk_steps}", f"total_steps={chunk_steps}", "learning_starts=0",
+             "replay_size=100000", f"progress_steps={chunk_steps}", *overrides]
+    variant_cfgs = {v: cfgmod.resolve(config, [*bench, *(v.split(",") if v else [])]) for v in ("", *variants)}
+    candidates = _candidates(lanes, variant_cfgs, shard)
     progs, states, compile_s, cfgs = {}, {}, {}, {}
-    quiet = lambda _line: None
 
     def run_chunk(c, st, index):  # as the training loop runs it (calls of progress_steps steps)
-        return jax.block_until_ready(train.train_chunk(cfgs[c], progs[c].chunk_fn, st, index, (), c[1], quiet)[0])
+        return jax.block_until_ready(train.train_chunk(cfgs[c], progs[c].chunk_fn, st, index, (), c[1], lambda _: None)[0])
 
     for c in candidates:
         L, sh, v = c
@@ -127,12 +156,10 @@ def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overr
         progs[c] = prog = train.programs(cfgs[c])
         st = place(prog.init_fn(jnp.asarray(0, jnp.uint32), jnp.arange(L, dtype=jnp.int32)), sh)
         t0 = time.perf_counter()
-        st = run_chunk(c, st, 0)
+        states[c] = run_chunk(c, st, 0)
         compile_s[c] = time.perf_counter() - t0
-        states[c] = st
         log(f"lanes {L}{' sharded' if sh else ''}{' ' + v if v else ''}: compiled + first chunk {compile_s[c]:.1f} s")
-    # one jitted chunk serves every lane count and placement of a config (one executable each), so
-    # "no recompilation" means: no executable added once every candidate has run its first chunk
+    # one jitted chunk serves every lane count and placement of a config (one executable each)
     warm_sizes = {c: progs[c].chunk_fn._cache_size() for c in candidates}
     times = {c: [] for c in candidates}
     for r in range(repeats):
@@ -140,31 +167,17 @@ def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overr
             t0 = time.perf_counter()
             states[c] = run_chunk(c, states[c], r + 1)
             times[c].append(time.perf_counter() - t0)
-    flops = update_flops(progs[candidates[0]].agent)
-    roof = _rooflines(config, (*bench, *overrides), progs[candidates[0]].agent, log) if with_roofline else None
-    # cost ratios against the first (single-device) 1-lane program of the same variant
-    one = {}
-    for L, _sh, v in candidates:
-        if L == 1 and v not in one:
-            one[v] = statistics.median(times[(L, _sh, v)])
-    rows = []
+    agent = progs[candidates[0]].agent
+    flops = update_flops(agent)
+    roof = _rooflines(config, (*bench, *overrides), agent, log) if with_roofline else None
+    one = {}  # cost ratios against the first (single-device) 1-lane program of the same variant
     for c in candidates:
-        L, sh, v = c
-        med = statistics.median(times[c])
-        rows.append({
-            "lanes": L, "devices": len(sh.mesh.devices.flat) if sh is not None else 1, "variant": v,
-            "median_s": med, "min_s": min(times[c]), "max_s": max(times[c]),
-            "env_steps_per_s": chunk_steps * L / med, "env_steps_per_s_per_lane": chunk_steps / med,
-            "ms_per_step": 1000 * med / chunk_steps, "compile_plus_first_chunk_s": compile_s[c],
-            "cost_ratio_vs_1": (med / (L * one[v])) if v in one else None,
-            "update_gflop_per_s": flops * chunk_steps * L / med / 1e9,
-            # the update's arithmetic rate over (cores × the one-core roofline of its own products)
-            "fraction_of_per_core_roofline": (flops * chunk_steps * L / med / 1e9 / (roof["cores"] * roof["one_core"]["roofline_gflop_per_s"])) if roof else None,
-            # executables of this config's chunk (one per lane count and placement) and how many
-            # were added while timing (must be 0)
-            "chunk_executables": progs[c].chunk_fn._cache_size(),
-            "compiles_while_timing": progs[c].chunk_fn._cache_size() - warm_sizes[c],
-        })
+        if c[0] == 1 and c[2] not in one:
+            one[c[2]] = statistics.median(times[c])
+    rows = [_row(c, times[c], compile_s[c], one.get(c[2]), chunk_steps, flops, roof,
+                 progs[c].chunk_fn._cache_size(), progs[c].chunk_fn._cache_size() - warm_sizes[c])
+            for c in candidates]
+    base = variant_cfgs[""]
     return {
         "benchmark": "train", "config": config, "overrides": list(overrides), "variants": list(variants),
         "chunk_steps": chunk_steps,
@@ -181,7 +194,7 @@ def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overr
 def _rooflines(config: str, overrides, agent, log) -> dict:
     """The update's matmul roofline (``swim_jax.roofline``) on all cores (this process) and on one
     core (a pinned child process with single-threaded XLA)."""
-    from swim_jax import roofline
+    from swim_jax import roofline  # after --host-devices (see measure)
 
     all_cores = roofline.roofline(agent)
     one_core = roofline.one_core_roofline(config, overrides)
@@ -214,10 +227,10 @@ def markdown(res: dict) -> str:
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     if args.host_devices > 0:
-        from swim_jax.sharding import set_host_devices
+        from swim_jax.sharding import set_host_devices  # before anything imports jax
 
         set_host_devices(args.host_devices)
-    from swim_jax.config import ConfigError
+    from swim_jax.config import ConfigError  # after set_host_devices: config imports jax
 
     try:
         lanes = _lanes(args.lanes)

@@ -21,6 +21,7 @@ from typing import Any, Mapping
 import yaml
 
 from agents.td3 import ActivationConfig, TD3Config
+from swim_jax import tensorboard_log
 
 CONFIG_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "configs")
 PRECISIONS = ("float32", "float64")
@@ -80,6 +81,10 @@ class Config:
     # JAX's persistent compilation cache in ~/.cache/swim-jax/xla ($XDG_CACHE_HOME respected), so a
     # second run of the same program starts in seconds; false (or SWIM_JAX_NO_COMPILATION_CACHE=1) = off
     compilation_cache: bool = True
+    # also write metrics.csv's scalars and the evaluation returns as TensorBoard event files, one
+    # run per seed: <run>/tensorboard/seed_<i>/ (swim_jax/tensorboard_log.py); needs tensorboardX,
+    # the optional extra: pip install -c requirements.lock -e '.[tensorboard]'
+    tensorboard: bool = False
     # hyperparameter sweep: {"agent.activation.k": (0.25, 0.5, 1.0), ...}; the grid (cartesian
     # product) × seeds trains as lanes of one program (python -m swim_jax.sweep); empty = no sweep
     sweep: Mapping[str, tuple[float, ...]] = field(default_factory=dict)
@@ -308,6 +313,10 @@ def validate(cfg: Config) -> Config:
     if not cfg.agent.hidden or any(h < 1 for h in cfg.agent.hidden):
         raise ConfigError(f"agent.hidden must be a non-empty list of positive widths, got {list(cfg.agent.hidden)}")
     _validate_sweep(cfg)
+    if cfg.tensorboard:
+        problem = tensorboard_log.missing_package()
+        if problem:
+            raise ConfigError(problem)
     return cfg
 
 

@@ -1,4 +1,6 @@
-"""Figure 4 of the paper from our runs: learning curves, mean ± half a std over seeds, one panel per env.
+"""The report's figures: Figure 4 of the paper from our runs (learning curves, mean ± half a std
+over seeds, one panel per env), the learning metrics between evaluations (metrics.csv) and the
+return-vs-parameter figure of sweeps.
 
 Headless (matplotlib Agg). The SVG is written with a fixed hash salt and no date so that the same
 inputs give the same bytes.
@@ -6,6 +8,7 @@ inputs give the same bytes.
 
 from __future__ import annotations
 
+import colorsys
 import math
 import re
 
@@ -16,6 +19,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.colors import to_hex, to_rgb  # noqa: E402
 from matplotlib.ticker import FuncFormatter, NullFormatter  # noqa: E402
+
+from swim_jax.runs_io import DEFAULT_PARAMS  # noqa: E402
 
 COLORS = {"swim": "#d62728", "swish": "#1f77b4", "relu": "#2ca02c"}  # tab:red, tab:blue, tab:green
 NAMES = {"swim": "Swim", "swish": "Swish", "relu": "ReLU"}
@@ -29,8 +34,6 @@ def extra_colors(n: int) -> list[str]:
     """``n`` distinct hex colours, none of them a reserved Swim/Swish/ReLU colour: the fixed palette
     first, then hues spaced by the golden angle (not within 0.04 of a reserved hue), saturation and
     value also spread (low discrepancy)."""
-    import colorsys
-
     used = set(COLORS.values())
     reserved_hues = [colorsys.rgb_to_hsv(*to_rgb(c))[0] for c in COLORS.values()]
     out = []
@@ -81,6 +84,20 @@ def _steps_label(x, _pos=None) -> str:
     return f"{x:g}"
 
 
+def group_colors(groups: dict) -> dict[str, str]:
+    """:func:`curve_colors` of every label of ``groups`` ({env: EnvGroup}) in panel order: the
+    colours of Figure 4, which the other figures reuse so that a label keeps its colour."""
+    return curve_colors(label for env in groups for label in groups[env].curves)
+
+
+def _save(fig, paths: list[str]) -> None:
+    """Save ``fig`` to each path (SVG without a date, PNG at 120 dpi) and close it."""
+    for p in paths:
+        kw = {"metadata": {"Date": None}} if str(p).endswith(".svg") else {"dpi": 120}
+        fig.savefig(p, **kw)
+    plt.close(fig)
+
+
 def figure4(groups: dict, paths: list[str]) -> None:
     """Draw one panel per env of ``groups`` ({env: EnvGroup}) and save it to each of ``paths``.
 
@@ -94,7 +111,7 @@ def figure4(groups: dict, paths: list[str]) -> None:
     nrows = math.ceil(n / ncols)
     with plt.rc_context({"svg.hashsalt": "swim-jax-report"}):
         fig, axes = plt.subplots(nrows, ncols, figsize=(5.0 * ncols, 3.8 * nrows), squeeze=False)
-        colors = curve_colors(label for env in envs for label in groups[env].curves)  # same across panels
+        colors = group_colors(groups)  # same across panels
         for ax, env in zip(axes.flat, envs):
             g = groups[env]
             for label, c in g.curves.items():
@@ -116,10 +133,41 @@ def figure4(groups: dict, paths: list[str]) -> None:
             ax.set_visible(False)
         fig.suptitle("Learning curves: mean over seeds, shaded ± ½ std", fontsize=11)
         fig.tight_layout()
-        for p in paths:
-            kw = {"metadata": {"Date": None}} if str(p).endswith(".svg") else {"dpi": 120}
-            fig.savefig(p, **kw)
-        plt.close(fig)
+        _save(fig, paths)
+
+
+LEARNING_PANELS = (("critic_loss", "critic loss"), ("actor_loss", "actor loss"), ("q_mean", "Q estimate"))
+
+
+def learning_figure(table: dict, colors: dict[str, str], paths: list[str]) -> None:
+    """Draw the learning metrics and save the figure to each of ``paths``: one row per env of
+    ``table`` (:func:`swim_jax.report.learning_table`), one panel per metric of
+    :data:`LEARNING_PANELS` against env steps; per label the mean over seeds as a line (colour from
+    ``colors``, a dot per chunk), the min–max over seeds shaded. A panel's y axis is logarithmic
+    when every value in it is > 0 (the critic loss spans decades)."""
+    envs = list(table)
+    ncols = len(LEARNING_PANELS)
+    with plt.rc_context({"svg.hashsalt": "swim-jax-report"}):
+        fig, axes = plt.subplots(len(envs), ncols, figsize=(5.0 * ncols, 3.6 * len(envs)), squeeze=False)
+        for row, env in zip(axes, envs):
+            for ax, (metric, title) in zip(row, LEARNING_PANELS):
+                for label, t in table[env].items():
+                    s = t[metric]
+                    ax.plot(t["steps"], s["mean"], color=colors[label], lw=1.6, marker="o", ms=2.5,
+                            label=f"{display_name(label)} ({t['seeds']} seeds)")  # a marker: one chunk shows
+                    ax.fill_between(t["steps"], s["min"], s["max"], color=colors[label], alpha=0.2, lw=0)
+                values = np.array([v for t in table[env].values() for k in ("min", "max") for v in t[metric][k]])
+                values = values[np.isfinite(values)]
+                if values.size and values.min() > 0:
+                    ax.set_yscale("log")
+                ax.set_title(f"{env}: {title}")
+                ax.set_xlabel("environment steps")
+                ax.xaxis.set_major_formatter(FuncFormatter(_steps_label))
+                ax.grid(alpha=0.3)
+            row[0].legend(fontsize=8, loc="best")
+        fig.suptitle("Learning metrics per chunk (metrics.csv): mean over seeds, shaded min–max", fontsize=11)
+        fig.tight_layout()
+        _save(fig, paths)
 
 
 _PARAM_LABEL = re.compile(r"^(?P<act>[a-z_]+)(?:\((?P<key>\w+)=(?P<val>[^)]+)\))?(?P<learn>\+learnable)?$")
@@ -131,8 +179,6 @@ def parameter_series(groups: dict) -> dict:
     unparameterised label counts as the paper's default). With ``+learnable`` the value is the
     initial one (series key ``"swim+learnable"``). Labels with other sweep values
     (``swim(k=1)[tau=0.01]``) are left out."""
-    from swim_jax.runs_io import DEFAULT_PARAMS
-
     out = {}
     for env, g in groups.items():
         by_act: dict = {}
@@ -179,7 +225,4 @@ def sweep_figure(series: dict, paths: list[str]) -> None:
         for ax in list(axes.flat)[n:]:
             ax.set_visible(False)
         fig.tight_layout()
-        for p in paths:
-            kw = {"metadata": {"Date": None}} if str(p).endswith(".svg") else {"dpi": 120}
-            fig.savefig(p, **kw)
-        plt.close(fig)
+        _save(fig, paths)

@@ -16,13 +16,15 @@ Grouping policy (documented in the report too):
   env (network size, precision, ...) are allowed but listed as warnings in the report;
 * an incomplete run (fewer evaluations than ``1 + total_steps/eval_freq``, e.g. still training) is
   refused unless ``allow_incomplete``, in which case every run of that env is truncated to the
-  evaluations all of them have, and the report says so.
+  evaluations all of them have, and the report says so;
+* a run's ``metrics.csv`` (per chunk and seed learning metrics, ``swim_jax/learning_log.py``) is
+  optional (older run folders have none); when present it is read and checked, and a curve set's
+  metrics pool the seeds of those of its runs that have one, over the chunks of its evaluations.
 
 Every problem raises :class:`RunError` with a one-line message.
 """
 
 from __future__ import annotations
-
 
 import csv
 import json
@@ -32,6 +34,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import yaml
 
+from swim_jax import learning_log
+
 POOL_IGNORED_KEYS = frozenset({"seeds", "first_seed", "seed", "name", "out_dir", "keep_checkpoints",
                                "shard_lanes", "host_devices"})  # placement only, same experiment
 DEFAULT_PARAMS = {"swim": ("k", 0.5), "swish": ("beta", 1.0)}
@@ -39,6 +43,23 @@ DEFAULT_PARAMS = {"swim": ("k", 0.5), "swish": ("beta", 1.0)}
 
 class RunError(ValueError):
     """A missing, corrupt or incompatible run folder; ``str(e)`` is one line."""
+
+
+@dataclass
+class LearningMetrics:
+    """``metrics.csv`` as arrays: ``values[column]`` is ``[n_chunks, seeds]`` for the float columns of
+    :data:`METRIC_COLUMNS`, chunk ``i`` ending at env step ``steps[i] = (i + 1) · eval_freq``; nan
+    where the file has no number (no update in that chunk yet, or no row)."""
+
+    steps: np.ndarray  # [n_chunks]
+    values: dict  # column -> [n_chunks, seeds]
+
+    @property
+    def n_seeds(self) -> int:
+        return int(next(iter(self.values.values())).shape[1])
+
+
+METRIC_COLUMNS = ("critic_loss", "actor_loss", "q_mean")  # what the report plots
 
 
 @dataclass
@@ -53,6 +74,7 @@ class Run:
     eval_freq: int
     seed_ids: list  # (base seed, seed index) per column
     returns: np.ndarray  # [n_evals, seeds]
+    metrics: LearningMetrics | None = None  # from metrics.csv; None without one
 
     @property
     def expected_evals(self) -> int:
@@ -72,6 +94,8 @@ class Curves:
     steps: np.ndarray
     returns: np.ndarray
     runs: list = field(default_factory=list)  # paths
+    metrics: LearningMetrics | None = None  # pooled over the runs with a metrics.csv (None: no run has one)
+    runs_without_metrics: list = field(default_factory=list)  # paths
 
     @property
     def n_seeds(self) -> int:
@@ -164,7 +188,39 @@ def load_run(path: str) -> Run:
         total_steps=total_steps,
         eval_freq=eval_freq, seed_ids=[(base_seed, first_seed + i) for i in range(seeds)],
         returns=returns.astype(np.float64),
+        metrics=load_metrics(path, eval_freq, total_steps, [first_seed + i for i in range(seeds)]),
     )
+
+
+def load_metrics(path: str, eval_freq: int, total_steps: int, seeds: list[int]) -> LearningMetrics | None:
+    """The run folder's ``metrics.csv`` as :class:`LearningMetrics` (columns in the order of
+    ``seeds``, the run's seed indices), None when there is none. Raises :class:`RunError` (one line)
+    when it is unreadable, names another seed, has a step that is not a chunk end
+    (``k · eval_freq``, ``0 < k · eval_freq <= total_steps``) or a (step, seed) twice."""
+    p = os.path.join(path, learning_log.FILENAME)
+    if not os.path.isfile(p):
+        return None
+    try:
+        m = learning_log.read(p)
+    except (OSError, UnicodeDecodeError, csv.Error, KeyError, ValueError, TypeError) as e:
+        raise RunError(f"{p}: unreadable ({_one_line(e)}; expected the columns "
+                       f"{','.join(learning_log.COLUMNS)})") from None
+    column = {s: j for j, s in enumerate(seeds)}
+    n = int(m["step"].max()) // eval_freq if m["step"].size else 0
+    values = {c: np.full((n, len(seeds)), np.nan) for c in METRIC_COLUMNS}
+    seen = set()
+    for r, (step, seed) in enumerate(zip(m["step"].tolist(), m["seed"].tolist())):
+        if seed not in column:
+            raise RunError(f"{p}: row {r + 2} has seed {seed}, not one of the run's seeds {seeds}")
+        if step <= 0 or step % eval_freq or step > total_steps:
+            raise RunError(f"{p}: row {r + 2} has step {step}, not a chunk end (a multiple of "
+                           f"eval_freq={eval_freq} in 1..total_steps={total_steps})")
+        if (step, seed) in seen:
+            raise RunError(f"{p}: step {step} of seed {seed} appears twice")
+        seen.add((step, seed))
+        for c in METRIC_COLUMNS:
+            values[c][step // eval_freq - 1, column[seed]] = m[c][r]
+    return LearningMetrics(np.arange(1, n + 1, dtype=np.int64) * eval_freq, values)
 
 
 def group_runs(runs: list[Run], allow_incomplete: bool = False) -> dict[str, EnvGroup]:
@@ -287,7 +343,24 @@ def _pool(env: str, act: str, runs: list[Run], n: int, eval_freq: int) -> Curves
             owner[sid] = r.path
     returns = np.concatenate([r.returns[:n] for r in runs], axis=1)
     steps = np.arange(n, dtype=np.int64) * eval_freq
-    return Curves(env, act, steps, returns, [r.path for r in runs])
+    return Curves(env, act, steps, returns, [r.path for r in runs], _pool_metrics(runs, n - 1, eval_freq),
+                  [r.path for r in runs if r.metrics is None])
+
+
+def _pool_metrics(runs: list[Run], n_chunks: int, eval_freq: int) -> LearningMetrics | None:
+    """The runs' metrics side by side (seeds of the runs that have a metrics.csv), over the first
+    ``n_chunks`` chunks (those the evaluations cover; missing rows nan); None if no run has one."""
+    have = [r.metrics for r in runs if r.metrics is not None]
+    if not have:
+        return None
+
+    def rows(v: np.ndarray) -> np.ndarray:
+        out = np.full((n_chunks, v.shape[1]), np.nan)
+        out[: min(n_chunks, v.shape[0])] = v[:n_chunks]
+        return out
+
+    values = {c: np.concatenate([rows(m.values[c]) for m in have], axis=1) for c in METRIC_COLUMNS}
+    return LearningMetrics(np.arange(1, n_chunks + 1, dtype=np.int64) * eval_freq, values)
 
 
 def _cross_activation_differences(by_act: dict[str, list[Run]]) -> list[str]:

@@ -17,6 +17,8 @@ Outputs in ``<out_dir>/<name>-<UTC timestamp>/``:
   final_policy.npz             actor parameters, leading axis = seed
   metrics.csv                  per chunk and seed: updates, critic/actor loss, mean Q, episodes, last
                                training episode's return (swim_jax/learning_log.py)
+  tensorboard/seed_<i>/        with ``tensorboard=true``: metrics.csv's scalars and the evaluation
+                               returns as TensorBoard event files (swim_jax/tensorboard_log.py)
   activation_params.csv        learnable k/beta per layer, seed and evaluation (learnable runs)
   point.json                   sweep points only: the point's label and swept values
 
@@ -31,6 +33,8 @@ Exit status: 0 done; 2 bad command line/config (one line on stderr, nothing writ
 
 from __future__ import annotations
 
+import contextlib
+import csv
 import dataclasses
 import json
 import math
@@ -40,12 +44,21 @@ import time
 from dataclasses import dataclass
 from typing import Callable
 
+import jax
+import jax.numpy as jnp
 import numpy as np
 import yaml
+from jax._src import xla_bridge
 
+import envs
+from agents import loop
+from agents.loop import CHECKED
+from agents.td3 import TD3
 from swim_jax import config as cfgmod
-from swim_jax import learning_log
+from swim_jax import learned_params, learning_log, tensorboard_log
+from swim_jax.checkpoint import Checkpointer
 from swim_jax.config import Config, ConfigError
+from swim_jax.sharding import lane_sharding, place, set_host_devices
 
 USAGE = (
     "usage: python -m swim_jax.train config=<name> [key=value ...]   (sweeps: python -m swim_jax.sweep)\n"
@@ -75,18 +88,11 @@ class RunResult:
 # ------------------------------------------------------------------------------------------------
 
 def _setup_precision(cfg: Config) -> None:
-    import jax
-
     jax.config.update("jax_enable_x64", cfg.precision == "float64")
 
 
 def build(cfg: Config):
     """(env, eval env, agent) for a validated config, in the configured precision."""
-    import jax.numpy as jnp
-
-    import envs
-    from agents.td3 import TD3
-
     _setup_precision(cfg)
     env = envs.make(cfg.env.id, max_episode_steps=cfg.env.max_episode_steps, backend=cfg.env.backend)
     eval_env = envs.make(cfg.env.id, max_episode_steps=cfg.env.max_episode_steps, backend=cfg.env.backend)
@@ -149,10 +155,6 @@ def programs(cfg: Config) -> Programs:
 
     The compiled program depends only on the fields in the cache key, not on seeds' identities,
     total_steps or outputs, so e.g. a resumed or re-run config in the same process compiles nothing."""
-    import jax
-
-    from agents import loop
-
     _setup_precision(cfg)
     # every config field that changes the built program (seeds only change the lane shapes)
     key = (cfg.env, cfg.agent, cfg.learning_starts, cfgmod.steps_per_call(cfg), cfg.eval_episodes,
@@ -210,8 +212,6 @@ def write_evaluations(run_dir: str, cfg: Config, evals: np.ndarray, n_done: int)
 
 def _flat_params(params) -> dict[str, np.ndarray]:
     """``{"params/body/dense_0/kernel": array, ...}``: the layout of ``final_policy.npz``."""
-    import jax
-
     return {
         "/".join(str(getattr(k, "key", k)) for k in kp): np.asarray(v)
         for kp, v in jax.tree_util.tree_flatten_with_path(params)[0]
@@ -220,8 +220,6 @@ def _flat_params(params) -> dict[str, np.ndarray]:
 
 def _first_bad(bad_step: np.ndarray):
     """(seed position, step, quantity) of the earliest non-finite event, or None."""
-    from agents.loop import CHECKED
-
     bad = np.where(bad_step < 0, np.iinfo(np.int64).max, bad_step.astype(np.int64))
     if bad.min() == np.iinfo(np.int64).max:
         return None
@@ -242,20 +240,17 @@ def run(cfg: Config, run_dir: str, resume: bool = False, log: Callable[[str], No
 
     Sets ``jax_enable_x64`` for the run (float64 iff ``precision=float64``) and restores the
     previous value when it returns, so in-process callers (tests) keep their own setting."""
-    from swim_jax.sharding import set_host_devices
-
     if cfg.host_devices and not _backends_started():
-        set_host_devices(cfg.host_devices)
-    import jax
-
+        set_host_devices(cfg.host_devices)  # read when JAX starts its backends (importing it does not)
     if cfg.compilation_cache:
         use_compilation_cache()
     previous_x64 = bool(jax.config.jax_enable_x64)
     t_start = time.time()
     say = (lambda m: status(f"[{_fmt_time(time.time() - t_start)}] {m}")) if status else (lambda m: None)
     try:
-        with jax.default_matmul_precision(cfg.matmul_precision):  # traced (compiled) under it
-            return _run(cfg, run_dir, resume, log, say)
+        # traced (compiled) under the matmul precision; ``closing`` closes the run's open files
+        with jax.default_matmul_precision(cfg.matmul_precision), contextlib.ExitStack() as closing:
+            return _run(cfg, run_dir, resume, log, say, closing)
     finally:
         jax.config.update("jax_enable_x64", previous_x64)
 
@@ -271,8 +266,6 @@ def use_compilation_cache() -> str | None:
     ``SWIM_JAX_NO_COMPILATION_CACHE`` is set or a cache folder is already configured (e.g. by
     ``JAX_COMPILATION_CACHE_DIR``); returns the folder in use. Programs with host callbacks (the
     native physics backend) are not cached by JAX; they compile in seconds."""
-    import jax
-
     if os.environ.get("SWIM_JAX_NO_COMPILATION_CACHE"):
         return None
     if not jax.config.jax_compilation_cache_dir:
@@ -282,20 +275,11 @@ def use_compilation_cache() -> str | None:
 
 
 def _backends_started() -> bool:
-    from jax._src import xla_bridge
-
     return bool(xla_bridge._backends)
 
 
 def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
-         say: Callable[[str], None]) -> RunResult:
-    import jax
-    import jax.numpy as jnp
-
-    from swim_jax import learned_params
-    from swim_jax.sharding import lane_sharding, place
-    from swim_jax.checkpoint import Checkpointer
-
+         say: Callable[[str], None], closing: contextlib.ExitStack) -> RunResult:
     t_start = time.time()
     say(f"building {cfg.env.id} ({cfg.env.backend} physics, {cfg.precision}) and the TD3 program for "
         f"{num_lanes(cfg)} lanes")
@@ -349,6 +333,9 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
                                jnp.asarray(False), *sweep_args))
         eval_time += time.time() - t0
         evals[j] = r
+        if tb is not None:
+            for lanes_p, (out_dir, _) in zip(point_lanes, outputs):
+                tb.evaluation(out_dir, j * cfg.eval_freq, seed_ids_np[lanes_p], r[lanes_p].mean(axis=1))
         if logs_params:
             values = learned_params.activation_params(states.agent.actor, states.agent.critic)
             for lanes_p, (out_dir, _) in zip(point_lanes, outputs):
@@ -362,7 +349,8 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
             write_sweep_table(run_dir, cfg, points, evals[:n_done, : P * S])
 
     start_chunk = 0
-    if resume and ckpt.latest_step() is not None:
+    restored = resume and ckpt.latest_step() is not None
+    if restored:
         step = ckpt.latest_step()
         # evals are stored in the compute dtype (exact: every return was computed in it)
         template = (jax.eval_shape(init_fn, base_seed, seed_ids, *sweep_args),
@@ -380,6 +368,11 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
             for name in (learned_params.FILENAME, learning_log.FILENAME):
                 if os.path.exists(os.path.join(out_dir, name)):
                     os.remove(os.path.join(out_dir, name))
+            if cfg.tensorboard:
+                tensorboard_log.remove(out_dir)
+    first_step = (start_chunk + 1) * cfg.eval_freq if restored else 0  # the first step logged below
+    tb = _open_tensorboard(cfg, outputs, point_lanes, seed_ids_np, first_step, closing)
+    if not restored:
         states = place(init_fn(base_seed, seed_ids, *sweep_args), sharding)
         say(f"compiling the evaluation program; evaluating the initial policies ({cfg.eval_episodes} episodes per lane)")
         evaluate(states, 0)
@@ -417,9 +410,12 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
         evaluate(states, c + 1)
         episodes, last_return = np.asarray(states.episodes), np.asarray(states.last_return)
         for lanes_p, (out_dir, _) in zip(point_lanes, outputs):
-            learning_log.append(os.path.join(out_dir, learning_log.FILENAME), step, seed_ids_np[lanes_p],
-                                {k: v[lanes_p] for k, v in chunk_metrics.items()}, episodes[lanes_p],
-                                last_return[lanes_p])
+            rows = learning_log.chunk_rows(step, seed_ids_np[lanes_p],
+                                           {k: v[lanes_p] for k, v in chunk_metrics.items()},
+                                           episodes[lanes_p], last_return[lanes_p])
+            learning_log.append(os.path.join(out_dir, learning_log.FILENAME), rows)
+            if tb is not None:
+                tb.chunk(out_dir, rows)
         ckpt.save(step, (states, jnp.asarray(evals)))
         write_all(c + 2)
         loop_walls.append(time.time() - t0)
@@ -456,6 +452,18 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
     return RunResult(run_dir, evals[:, : P * S], final_actor, states, chunk_fn, eval_fn, timing)
 
 
+def _open_tensorboard(cfg: Config, outputs, point_lanes, seed_ids: np.ndarray, first_step: int,
+                      closing: contextlib.ExitStack):
+    """The run's :class:`swim_jax.tensorboard_log.TensorBoardLog` (one writer per seed of every
+    output folder, closed by ``closing``), or None when ``cfg.tensorboard`` is off."""
+    if not cfg.tensorboard:
+        return None
+    tb = tensorboard_log.TensorBoardLog(
+        [(out_dir, seed_ids[lanes_p]) for lanes_p, (out_dir, _) in zip(point_lanes, outputs)], first_step)
+    closing.callback(tb.close)
+    return tb
+
+
 PROGRESS_EVERY_S = 30.0
 
 
@@ -464,10 +472,6 @@ def train_chunk(cfg: Config, chunk_fn, states, c: int, sweep_args, sharding, say
     calls, at most every ``PROGRESS_EVERY_S`` seconds, ``say`` gets the step, env-steps/s and the
     chunk's ETA. Re-placing keeps the input sharding identical every call (no recompilation).
     Returns (states, the chunk's per-lane learning metrics, ``learning_log.combine``)."""
-    import jax.numpy as jnp
-
-    from swim_jax.sharding import place
-
     per_call = cfgmod.steps_per_call(cfg)
     calls = cfg.eval_freq // per_call
     t0 = last = time.time()
@@ -507,8 +511,6 @@ def write_sweep_table(run_dir: str, cfg: Config, points, evals: np.ndarray) -> N
     per_point = evals.mean(axis=2).reshape(evals.shape[0], len(points), cfg.seeds)  # [n, P, seeds]
     # csv quoting: multi-axis labels contain commas ("beta=0.5,tau=0.01") and are written quoted;
     # labels without commas are written bare, as before (swim_jax.runs_io.expand_sweeps reads both)
-    import csv
-
     with open(os.path.join(run_dir, "sweep.csv"), "w", newline="") as f:
         w = csv.writer(f, quoting=csv.QUOTE_MINIMAL, lineterminator="\n")
         w.writerow(["point", *keys, "final_mean", "final_std", "best_mean", "best_step"])

@@ -566,3 +566,125 @@ def test_negative_boot_seed_is_refused(tmp_path, walker, capsys):
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1 and "--boot-seed must be >= 0" in err
     assert not (tmp_path / "o").exists()
+
+
+# ------------------------------------------------------------------------------------------------
+# learning metrics between evaluations (metrics.csv)
+# ------------------------------------------------------------------------------------------------
+
+METRICS_HEADER = "step,seed,updates,critic_loss,q_mean,actor_updates,actor_loss,episodes,last_episode_return"
+
+
+def write_metrics(run_dir, rows):
+    """metrics.csv as swim_jax.train writes it, from (step, seed, critic loss, actor loss, Q) rows."""
+    lines = [METRICS_HEADER] + [f"{st},{seed},100,{c!r},{q!r},50,{a!r},3,12.5" for st, seed, c, a, q in rows]
+    with open(os.path.join(run_dir, "metrics.csv"), "w") as f:
+        f.write("\n".join(lines) + "\n")
+
+
+NAN = float("nan")
+# Walker2d-v5, eval_freq 100: chunks end at steps 100 and 200. (step, seed, critic, actor, Q)
+SWIM_A = [(100, 0, NAN, NAN, NAN), (100, 1, NAN, NAN, NAN), (200, 0, 4.0, 1.0, -2.0), (200, 1, 1.0, 3.0, -6.0)]
+SWIM_B = [(100, 2, 2.0, 5.0, 0.5), (200, 2, 7.0, 2.0, -1.0)]  # a second swim run: seed 2, pooled
+SWISH_M = [(100, 0, 10.0, -1.0, 1.0), (100, 1, 30.0, 1.0, 3.0), (200, 0, 5.0, 2.0, 10.0), (200, 1, 5.0, 4.0, 20.0)]
+
+
+def _learning_runs(root):
+    runs = os.path.join(str(root), "runs")
+    os.makedirs(runs)
+    paths = [write_run(runs, "swim_a", act="swim"),
+             write_run(runs, "swim_b", act="swim", returns=SWIM[:, :1], first_seed=2),
+             write_run(runs, "swish", act="swish", returns=SWISH),
+             write_run(runs, "relu", act="relu", returns=SWISH + 1)]
+    for path, rows in zip(paths, (SWIM_A, SWIM_B, SWISH_M)):
+        write_metrics(path, rows)
+    return paths  # relu: an old run folder without metrics.csv
+
+
+def test_learning_metrics_figure_and_numbers_by_hand(tmp_path, capsys):
+    """Per chunk mean/min/max over the pooled seeds that have a number (swim: seeds 0, 1 of one run
+    and seed 2 of another), drawn in Figure 4's colours; the run without metrics.csv is named."""
+    paths = _learning_runs(tmp_path)
+    out = tmp_path / "out"
+    rc, stdout, err = run_report(paths + ["--out", out, "--n-boot", "200"], capsys)
+    assert rc == 0, err
+    assert sorted(os.listdir(out)) == ["REPORT.md", "figure4.png", "figure4.svg", "learning.png", "learning.svg",
+                                       "results.json"]
+    assert "learning.png" in stdout and (out / "learning.png").read_bytes().startswith(b"\x89PNG")
+    lm = json.loads((out / "results.json").read_text())["envs"]["Walker2d-v5"]["learning_metrics"]
+    assert list(lm) == ["swim", "swish"]  # relu has no metrics.csv
+    # swim, chunk 100: only seed 2 updated; chunk 200: seeds 0, 1, 2
+    assert lm["swim"]["steps"] == [100, 200] and lm["swim"]["seeds"] == 3
+    assert lm["swim"]["critic_loss"] == {"mean": [2.0, 4.0], "min": [2.0, 1.0], "max": [2.0, 7.0]}
+    assert lm["swim"]["actor_loss"] == {"mean": [5.0, 2.0], "min": [5.0, 1.0], "max": [5.0, 3.0]}
+    assert lm["swim"]["q_mean"] == {"mean": [0.5, -3.0], "min": [0.5, -6.0], "max": [0.5, -1.0]}
+    assert lm["swish"]["critic_loss"] == {"mean": [20.0, 5.0], "min": [10.0, 5.0], "max": [30.0, 5.0]}
+    assert lm["swish"]["actor_loss"] == {"mean": [0.0, 3.0], "min": [-1.0, 2.0], "max": [1.0, 4.0]}
+    assert lm["swish"]["q_mean"] == {"mean": [2.0, 15.0], "min": [1.0, 10.0], "max": [3.0, 20.0]}
+    # three panels (critic loss, actor loss, Q), each with Swim's red then Swish's blue
+    colours = _curve_stroke_colours((out / "learning.svg").read_text())
+    assert colours == ["#d62728", "#1f77b4"] * 3, colours
+    md = (out / "REPORT.md").read_text()
+    assert "## Learning metrics between evaluations" in md and "![Learning metrics](learning.png)" in md
+    assert md.index("## Figure 4") < md.index("## Learning metrics") < md.index("## Beyond the paper")
+    assert "Left out (no `metrics.csv`" in md and f"`{paths[3]}`." in md
+
+
+def test_runs_without_metrics_csv_report_as_before(tmp_path, capsys):
+    """The same runs without their metrics.csv: no learning figure, and REPORT.md and results.json
+    are those of the report with metrics less its learning section and numbers. --force over a
+    report with the figure removes it."""
+    paths = _learning_runs(tmp_path)
+    with_m, without = tmp_path / "with", tmp_path / "without"
+    assert run_report(paths + ["--out", with_m, "--n-boot", "200"], capsys)[0] == 0
+    for p in paths[:3]:
+        os.remove(os.path.join(p, "metrics.csv"))
+    assert run_report(paths + ["--out", without, "--n-boot", "200"], capsys)[0] == 0
+    assert sorted(os.listdir(without)) == ["REPORT.md", "figure4.png", "figure4.svg", "results.json"]
+    for name in ("figure4.png", "figure4.svg"):
+        assert (with_m / name).read_bytes() == (without / name).read_bytes()
+    res_with, res_without = (json.loads((d / "results.json").read_text()) for d in (with_m, without))
+    del res_with["envs"]["Walker2d-v5"]["learning_metrics"]
+    assert res_with == res_without
+    md_with = (with_m / "REPORT.md").read_text().replace(str(with_m), "OUT")
+    start, end = md_with.index("## Learning metrics"), md_with.index("## Beyond the paper")
+    assert md_with[:start] + md_with[end:] == (without / "REPORT.md").read_text().replace(str(without), "OUT")
+    rc, _, err = run_report(paths + ["--out", with_m, "--force", "--n-boot", "200"], capsys)
+    assert rc == 0, err
+    assert sorted(os.listdir(with_m)) == ["REPORT.md", "figure4.png", "figure4.svg", "results.json"]
+
+
+@pytest.mark.parametrize("rows, needle", [
+    ([(100, 5, 1.0, 1.0, 1.0)], "row 2 has seed 5, not one of the run's seeds [0, 1]"),
+    ([(150, 0, 1.0, 1.0, 1.0)], "row 2 has step 150, not a chunk end"),
+    ([(300, 0, 1.0, 1.0, 1.0)], "row 2 has step 300, not a chunk end"),
+    ([(100, 0, 1.0, 1.0, 1.0), (100, 0, 2.0, 1.0, 1.0)], "step 100 of seed 0 appears twice"),
+    (None, "unreadable (missing column 'updates'"),
+])
+def test_bad_metrics_csv_exit_2_one_line_nothing_written(tmp_path, walker, capsys, rows, needle):
+    if rows is None:
+        with open(os.path.join(walker[0], "metrics.csv"), "w") as f:
+            f.write("step,seed,critic_loss\n100,0,1.0\n")  # columns missing
+    else:
+        write_metrics(walker[0], rows)
+    out = tmp_path / "out"
+    rc, _, err = run_report(walker + ["--out", out], capsys)
+    assert rc == 2 and _one_error_line(err), err
+    assert os.path.join(walker[0], "metrics.csv") in err and needle in err, err
+    assert not out.exists()
+
+
+def test_learning_metrics_of_incomplete_runs_cover_the_common_evaluations(tmp_path, walker, capsys):
+    """--allow-incomplete truncates the metrics to the chunks before the last common evaluation;
+    chunks a run has no row for are gaps (no number)."""
+    part = write_run(tmp_path, "partial", act="relu", returns=SWISH[:2])  # evaluations at 0 and 100
+    write_metrics(part, [(100, 0, 1.0, 2.0, 3.0), (200, 0, 9.0, 9.0, 9.0)])  # chunk 200 logged, not evaluated
+    write_metrics(walker[1], [(200, 0, 4.0, 5.0, 6.0)])
+    out = tmp_path / "out"
+    rc, _, err = run_report(walker + [part, "--out", out, "--allow-incomplete", "--n-boot", "200"], capsys)
+    assert rc == 0, err
+    lm = json.loads((out / "results.json").read_text())["envs"]["Walker2d-v5"]["learning_metrics"]
+    assert lm["relu"]["steps"] == [100] and lm["relu"]["critic_loss"]["mean"] == [1.0]
+    assert lm["relu"]["actor_loss"]["max"] == [2.0] and lm["relu"]["q_mean"]["min"] == [3.0]
+    assert lm["swish"]["steps"] == [100]
+    assert lm["swish"]["critic_loss"] == {"mean": [None], "min": [None], "max": [None]}  # no row for 100

@@ -1,14 +1,17 @@
 """The training program end to end on a tiny Hopper-v5 config (real envs, real TD3, small nets).
 
-Compiles are the cost here, so one vmapped 2-seed run (module fixture) serves several tests; a
-single-seed run checks seed independence (same executable, no compile); the resume test (slow)
-runs the CLI in subprocesses that share a persistent compilation cache.
+Compiles are the cost here, so one vmapped 2-seed run (module fixture, with TensorBoard output)
+serves several tests; a single-seed run checks seed independence (same executable, no compile);
+the resume test (slow) runs the CLI in subprocesses that share a persistent compilation cache.
 """
 
 from __future__ import annotations
 
+import json
 import os
+import shutil
 import signal
+import struct
 import subprocess
 import sys
 import time
@@ -17,10 +20,13 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from tensorboardX.crc32c import crc32c
+from tensorboardX.proto.event_pb2 import Event, SessionLog
 
+from agents.loop import CHECKED
 from agents import loop
 from swim_jax import config as cfgmod
-from swim_jax import train
+from swim_jax import learning_log, report, tensorboard_log, train
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TINY = [
@@ -37,6 +43,7 @@ TINY = [
     "env.backend=mujoco",
 ]
 CONFIG = "hopper_relu"
+VMAPPED = ("tensorboard=true",)  # the module fixture's run also writes TensorBoard event files
 
 
 def tiny(*extra: str) -> cfgmod.Config:
@@ -67,7 +74,7 @@ def vmapped(tmp_path_factory):
         counter.active = True  # first chunk (and its evaluation + checkpoint) done
 
     t0 = time.time()
-    res = train.run(tiny(), str(tmp_path_factory.mktemp("vmapped") / "run"), log=log)
+    res = train.run(tiny(*VMAPPED), str(tmp_path_factory.mktemp("vmapped") / "run"), log=log)
     counter.active = False
     res.wall = time.time() - t0
     res.lines = lines
@@ -90,7 +97,7 @@ def test_outputs_and_progress_lines(vmapped):
     # keep_checkpoints=3 of the 4 chunk checkpoints
     assert sorted(os.listdir(os.path.join(d, "checkpoints"))) == ["2000", "3000", "4000"]
     # the resolved config round-trips
-    assert train.parse_args(["--resume", d])[0] == tiny()
+    assert train.parse_args(["--resume", d])[0] == tiny(*VMAPPED)
 
 
 def test_no_recompilation_after_first_chunk(vmapped):
@@ -117,8 +124,6 @@ def test_metrics_csv_logs_updates_losses_and_episodes_per_chunk_and_seed(vmapped
     """metrics.csv: 4 chunks × 2 seeds; no update in the warm-up chunk (learning_starts=1000),
     then 1000 updates and 500 actor updates (policy_freq 2) per chunk with finite losses; the last
     row's episode count and return are the final training state's; the progress line shows them."""
-    from swim_jax import learning_log
-
     m = learning_log.read(os.path.join(vmapped.run_dir, learning_log.FILENAME))
     np.testing.assert_array_equal(m["step"], np.repeat([1000, 2000, 3000, 4000], 2))
     np.testing.assert_array_equal(m["seed"], np.tile([0, 1], 4))
@@ -132,11 +137,119 @@ def test_metrics_csv_logs_updates_losses_and_episodes_per_chunk_and_seed(vmapped
     assert "critic loss" not in vmapped.lines[0] and "critic loss" in vmapped.lines[1]
 
 
+def _masked_crc(data: bytes) -> int:
+    """TFRecord's masked CRC-32C of ``data``."""
+    crc = crc32c(data)
+    return (((crc >> 15) | (crc << 17)) + 0xA282EAD8) & 0xFFFFFFFF
+
+
+def read_events(folder, purge: bool = True) -> dict[str, list[tuple[int, float]]]:
+    """``{tag: [(step, value), ...]}`` of the scalar events of every event file in ``folder`` (file
+    name order), parsed as TFRecords with both CRCs checked, and with TensorBoard's purge rule
+    (unless not ``purge``): a SessionLog START at step T drops the values read so far at steps >= T."""
+    out: dict[str, list[tuple[int, float]]] = {}
+    for name in sorted(os.listdir(folder)):
+        data = open(os.path.join(folder, name), "rb").read()
+        pos = 0
+        while pos < len(data):
+            header = data[pos:pos + 8]
+            (n,) = struct.unpack("<Q", header)
+            body = data[pos + 12:pos + 12 + n]
+            assert struct.unpack("<I", data[pos + 8:pos + 12])[0] == _masked_crc(header)
+            assert struct.unpack("<I", data[pos + 12 + n:pos + 16 + n])[0] == _masked_crc(body)
+            pos += 16 + n
+            event = Event.FromString(body)
+            if purge and event.HasField("session_log") and event.session_log.status == SessionLog.START:
+                out = {tag: [(st, v) for st, v in series if st < event.step] for tag, series in out.items()}
+            for value in event.summary.value:
+                out.setdefault(value.tag, []).append((event.step, value.simple_value))
+    return out
+
+
+def _expected_events(run_dir: str, seed_pos: int, seed: int) -> dict[str, list[tuple[int, float]]]:
+    """What the event files of ``seed`` must hold, from metrics.csv and evaluations.npy (float32:
+    TensorBoard's scalar format; nan cells left out)."""
+    m = learning_log.read(os.path.join(run_dir, learning_log.FILENAME))
+    mine = m["seed"] == seed
+    want = {tensorboard_log.train_tag(c): [(int(st), float(np.float32(v))) for st, v in zip(m["step"][mine], m[c][mine])
+                                           if np.isfinite(v)]
+            for c in tensorboard_log.TRAIN_COLUMNS}
+    ev = np.load(os.path.join(run_dir, "evaluations.npy"))[:, seed_pos]
+    eval_freq = int(m["step"][0])
+    want[tensorboard_log.EVAL_TAG] = [(j * eval_freq, float(np.float32(v))) for j, v in enumerate(ev)]
+    return {tag: series for tag, series in want.items() if series}
+
+
+def test_tensorboard_events_equal_metrics_csv_and_evaluations(vmapped):
+    """tensorboard=true: one folder of event files per seed whose scalars are metrics.csv's columns
+    and the evaluation returns, value for value (as float32), at the same steps."""
+    d = vmapped.run_dir
+    assert sorted(os.listdir(os.path.join(d, "tensorboard"))) == ["seed_0", "seed_1"]
+    for pos, seed in enumerate((0, 1)):
+        folder = tensorboard_log.seed_folder(d, seed)
+        assert len(os.listdir(folder)) == 1
+        got, want = read_events(folder), _expected_events(d, pos, seed)
+        assert got == want
+        assert got["train/critic_loss"][0][0] == 2000 and len(got["train/updates"]) == 4  # none before learning_starts
+        assert [st for st, _ in got["eval/return"]] == [0, 1000, 2000, 3000, 4000]
+
+
+def test_tensorboard_events_of_a_resumed_run_hide_those_after_its_checkpoint(vmapped, tmp_path):
+    """Killed after logging chunk 4 but before its checkpoint (checkpoint 4000 removed), then
+    resumed: a second event file per seed starts with a purge marker, so TensorBoard reads each
+    step once and the values equal the rewritten metrics.csv (the same executable: no compile)."""
+    d = str(tmp_path / "run")
+    shutil.copytree(vmapped.run_dir, d)
+    shutil.rmtree(os.path.join(d, "checkpoints", "4000"))
+    res = train.run(tiny(*VMAPPED), d, resume=True, log=lambda s: None)
+    assert res.chunk_fn is vmapped.chunk_fn and res.chunk_fn._cache_size() == 1
+    m = learning_log.read(os.path.join(d, learning_log.FILENAME))
+    np.testing.assert_array_equal(m["step"], np.repeat([1000, 2000, 3000, 4000], 2))
+    for pos, seed in enumerate((0, 1)):
+        folder = tensorboard_log.seed_folder(d, seed)
+        assert len(os.listdir(folder)) == 2
+        assert read_events(folder) == _expected_events(d, pos, seed)
+        raw = [st for st, _ in read_events(folder, purge=False)["eval/return"]]
+        assert raw == [0, 1000, 2000, 3000, 4000, 4000]  # the purge marker is what hides the first 4000
+
+
+def test_tensorboard_without_tensorboardx_one_line_exit_2_nothing_written(tmp_path):
+    """tensorboard=true in a Python where tensorboardX cannot be imported (None in sys.modules makes
+    every import of it fail): one error line naming the package and the install command, exit
+    status 2, no run folder."""
+    code = ("import sys; sys.modules['tensorboardX'] = None\n"
+            "from swim_jax import train\nsys.exit(train.main(sys.argv[1:]))")
+    p = subprocess.run([sys.executable, "-c", code, "config=hopper_relu", "tensorboard=true",
+                        f"out_dir={tmp_path}/out"], cwd=REPO, capture_output=True, text=True, timeout=300)
+    assert p.returncode == 2, p.stderr
+    errors = [line for line in p.stderr.splitlines() if line.startswith("error: ")]
+    assert len(errors) == 1 and errors[0] == p.stderr.strip().splitlines()[-1], p.stderr
+    assert "tensorboard=true needs the optional package tensorboardX" in errors[0]
+    assert "pip install -c requirements.lock -e '.[tensorboard]'" in errors[0]
+    assert p.stdout == "" and not os.path.exists(tmp_path / "out")
+
+
+def test_report_plots_the_runs_learning_metrics(vmapped, tmp_path, capsys):
+    """python -m swim_jax.report on the trained run: learning.png/.svg, and results.json's learning
+    metrics are metrics.csv's per-chunk means over the seeds (no point before the first update)."""
+    out = tmp_path / "report"
+    assert report.main([vmapped.run_dir, "--out", str(out), "--n-boot", "200"]) == 0, capsys.readouterr().err
+    assert (out / "learning.png").read_bytes().startswith(b"\x89PNG") and (out / "learning.svg").is_file()
+    rows = json.loads((out / "results.json").read_text())["envs"]["Hopper-v5"]["learning_metrics"]["relu"]
+    m = learning_log.read(os.path.join(vmapped.run_dir, learning_log.FILENAME))
+    assert rows["steps"] == [1000, 2000, 3000, 4000] and rows["seeds"] == 2
+    for metric in ("critic_loss", "actor_loss", "q_mean"):
+        v = m[metric].reshape(4, 2)  # rows: chunk, then seed
+        assert rows[metric]["mean"][0] is None  # warm-up chunk: no update
+        assert rows[metric]["mean"][1:] == pytest.approx(v[1:].mean(axis=1).tolist(), rel=1e-12)
+        assert rows[metric]["min"][1:] == v[1:].min(axis=1).tolist()
+    assert "![Learning metrics](learning.png)" in (out / "REPORT.md").read_text()
+
+
 def test_chunk_metrics_are_count_weighted_means():
     """loop.summarize_updates and learning_log.combine against NumPy on synthetic metrics."""
     from agents.loop import summarize_updates
     from agents.td3 import UpdateMetrics
-    from swim_jax import learning_log
 
     rng = np.random.default_rng(0)
     T, L = 6, 3
@@ -226,8 +339,6 @@ def test_single_seed_equals_its_slot_in_the_vmapped_run(vmapped, tmp_path):
 
 def test_nan_detection_names_seed_step_and_quantity(vmapped):
     """Poison seed 1's critic in the real compiled chunk: the first bad step is the first update."""
-    from agents.loop import CHECKED
-
     st = jax.tree.map(jnp.copy, vmapped.states)
     critic = jax.tree.map(lambda x: x.at[1].set(jnp.nan) if x.ndim else x, st.agent.critic)
     st = st._replace(agent=st.agent._replace(critic=critic))
