@@ -135,6 +135,27 @@ def _update_gradient(m, d, ctx):
     return ctx.replace(grad=grad, Mgrad=small_linalg.cho_solve_upper(u, grad))
 
 
+def _bracket_step(point, gtol, s):
+    """One iteration of the bracketed phase of :func:`linesearch`: evaluate the bracket's midpoint,
+    move each end to the best candidate that keeps the bracket, take the Newton points of the
+    moved ends; ``s`` = (p1, p2, p1next, p2next, n, done, result)."""
+    p1, p2, p1next, p2next, n, _done, res = s
+    pmid = point(0.5 * (p1.alpha + p2.alpha))
+    cands = [p1next, p2next, pmid]
+    stacked = jax.tree_util.tree_map(lambda *x: jnp.stack(x), *cands)
+    ok = jnp.abs(stacked.d0) < gtol
+    best = jax.tree_util.tree_map(lambda x: x[jnp.argmin(jnp.where(ok, stacked.cost, jnp.inf))],
+                                  stacked)
+    p1u, f1 = _update_bracket(p1, cands)
+    p2u, f2 = _update_bracket(p2, cands)
+    p1next = _select(f1, point(_newton(p1u)), p1next)
+    p2next = _select(f2, point(_newton(p2u)), p2next)
+    conv, stuck = ok.any(), ~f1 & ~f2
+    res = _select(conv, best, _select(stuck, pmid, res))
+    n = n + 1 + f1.astype(n.dtype) + f2.astype(n.dtype)
+    return p1u, p2u, p1next, p2next, n, conv | stuck, res
+
+
 def linesearch(m, d, ctx, scale):
     """C's ``PrimalSearch`` along ``ctx.search``: returns (alpha, improvement = -(cost(alpha) -
     cost(0)), M·search, J·search). alpha = 0 means no step (the outer loop then stops)."""
@@ -173,25 +194,8 @@ def linesearch(m, d, ctx, scale):
         _p1, _p2, _p1n, _p2n, n, done, _res = s
         return ~done & (n < n_max)
 
-    def bracket_body(s):
-        p1, p2, p1next, p2next, n, _done, res = s
-        pmid = point(0.5 * (p1.alpha + p2.alpha))
-        cands = [p1next, p2next, pmid]
-        stacked = jax.tree_util.tree_map(lambda *x: jnp.stack(x), *cands)
-        ok = jnp.abs(stacked.d0) < gtol
-        best = jax.tree_util.tree_map(lambda x: x[jnp.argmin(jnp.where(ok, stacked.cost, jnp.inf))],
-                                      stacked)
-        p1u, f1 = _update_bracket(p1, cands)
-        p2u, f2 = _update_bracket(p2, cands)
-        p1next = _select(f1, point(_newton(p1u)), p1next)
-        p2next = _select(f2, point(_newton(p2u)), p2next)
-        conv, stuck = ok.any(), ~f1 & ~f2
-        res = _select(conv, best, _select(stuck, pmid, res))
-        n = n + 1 + f1.astype(n.dtype) + f2.astype(n.dtype)
-        return p1u, p2u, p1next, p2next, n, conv | stuck, res
-
     p1b, p2b, _, _, _, done, res = jax.lax.while_loop(
-        bracket_cond, bracket_body, (p1, p2, p1next, p1, n, take_p1, p1))
+        bracket_cond, lambda s: _bracket_step(point, gtol, s), (p1, p2, p1next, p1, n, take_p1, p1))
     # budget used up while bracketing: the better end if it improves, else no step
     no_step = _Point(zero, zero, zero, zero)
     best_end = _select((p1b.cost <= p2b.cost) & (p1b.cost < 0), p1b,
