@@ -18,6 +18,7 @@ from __future__ import annotations
 import os
 from typing import Any, ClassVar, Dict, Optional, Tuple
 
+import gymnasium.envs.mujoco as gym_mujoco
 import jax
 import jax.numpy as jnp
 import mujoco
@@ -48,10 +49,8 @@ BACKENDS = ("mjx", "mujoco")
 def gymnasium_asset_path(xml_file: str) -> str:
     """Return the absolute path of ``xml_file`` inside the installed gymnasium's MuJoCo assets.
 
-    Raises FileNotFoundError if gymnasium (or the file) is not installed.
+    Raises FileNotFoundError if the file is not there.
     """
-    import gymnasium.envs.mujoco as gym_mujoco  # local import: only the asset folder is needed
-
     path = os.path.join(os.path.dirname(gym_mujoco.__file__), "assets", xml_file)
     if not os.path.isfile(path):
         raise FileNotFoundError(f"Gymnasium MuJoCo asset not found: {path}")

@@ -28,6 +28,7 @@ import numpy as np
 from envs.base import BACKENDS
 from envs.mjx_solver import check_implementation
 from envs.registry import ENV_IDS, make
+from swim_jax.timing import time_interleaved
 
 DEFAULT_ENVS = ("Hopper-v5", "Walker2d-v5", "HalfCheetah-v5", "Swimmer-v5", "Ant-v5")
 
@@ -93,8 +94,6 @@ def bench_env(env_id: str, batches: Sequence[int], scan_len: int, repeats: int,
     implementation, and/or the native backend's jitted rollout): each is compiled first, then a
     plain MuJoCo C loop (one core, no JAX) and every variant are timed interleaved
     (:func:`swim_jax.timing.time_interleaved`, rotating order, medians)."""
-    from swim_jax.timing import time_interleaved
-
     variants = physics_variants(backends, solver_impls)
     env_by_variant = {v: _make_variant(env_id, v, options) for v in variants}
     native_env = env_by_variant[variants[0]]

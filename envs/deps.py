@@ -87,6 +87,6 @@ def import_mjx_quietly():
         return sys.modules["mujoco.mjx"]
     quiet = _DropWarpLines(sys.stdout)
     with contextlib.redirect_stdout(quiet):
-        from mujoco import mjx
+        from mujoco import mjx  # here, not at the top: the import is what this function quietens
     quiet.flush()
     return mjx

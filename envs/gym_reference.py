@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from typing import Callable, Dict, Optional
 
+import gymnasium as gym
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -42,8 +43,6 @@ def record(env_id: str, n_steps: int, policy: str = "random", seed: int = 0,
     action, obs, reward, terminated (Gymnasium's outputs of each step) and t (step in episode).
     All arrays are copies (never views of MjData memory).
     """
-    import gymnasium as gym
-
     pol = {"random": random_policy, "sine": sine_policy}[policy]
     genv = gym.make(env_id).unwrapped
     valid = sorted(n for n in dir(genv.model.opt) if not n.startswith("_"))

@@ -33,10 +33,10 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 import numpy as np
-from mujoco.mjx._src import collision_driver, collision_primitive, forward, math, scan, smooth, support
+from mujoco.mjx._src import collision_driver, collision_primitive, forward, math, scan, smooth, solver, support
 from mujoco.mjx._src.types import GeomType, JointType
 
-from envs import small_linalg
+from envs import mjx_solver, small_linalg
 
 _MINVAL = 1e-15
 
@@ -148,9 +148,6 @@ def solve_m_plain(m, d, x):
 def install() -> None:
     """Register the C-consistent plane-capsule frame, RK4 step and Newton solver, and LAPACK-free
     factorisation of M, in MJX (idempotent)."""
-    from envs import mjx_solver
-    from mujoco.mjx._src import solver
-
     solver.solve = mjx_solver.solve
     smooth.factor_m, smooth.solve_m = factor_m_plain, solve_m_plain
     collision_driver._COLLISION_FUNC[(GeomType.PLANE, GeomType.CAPSULE)] = plane_capsule_c_frame

@@ -20,7 +20,9 @@ from typing import Any, Mapping
 
 import yaml
 
-from agents.td3 import ActivationConfig, TD3Config
+import envs
+from agents.td3 import ActivationConfig, TD3Config, replace_fields, sweepable_fields
+from swim_jax.activations import ACTIVATIONS, validate_params
 from swim_jax import tensorboard_log
 
 CONFIG_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "configs")
@@ -271,9 +273,6 @@ def apply_overrides(data: dict, overrides: list[str]) -> dict:
 
 def validate(cfg: Config) -> Config:
     """Semantic checks (env id, activation, precision, step arithmetic); returns cfg."""
-    import envs  # local: heavy import (mujoco), only needed once a config is built
-    from swim_jax.activations import ACTIVATIONS, validate_params
-
     if cfg.env.id not in envs.ENV_IDS:
         raise ConfigError(f"unknown env.id {cfg.env.id!r}; valid: {', '.join(envs.ENV_IDS)}")
     if cfg.env.backend not in envs.BACKENDS:
@@ -322,8 +321,6 @@ def validate(cfg: Config) -> Config:
 
 def sweepable_keys(cfg: Config) -> tuple[str, ...]:
     """Config keys that can be sweep axes for this config (``agent.`` + ``sweepable_fields``)."""
-    from agents.td3 import sweepable_fields
-
     return tuple(f"agent.{f}" for f in sweepable_fields(cfg.agent.activation.name))
 
 
@@ -335,8 +332,6 @@ def _validate_sweep(cfg: Config) -> None:
                               f"valid sweep keys: {', '.join(valid)}")
         if len(set(values)) != len(values):
             raise ConfigError(f"sweep.{key}: values must be distinct, got {list(values)}")
-    from swim_jax.activations import validate_params
-
     for point in sweep_points(cfg):
         pc = point_config(cfg, point)
         try:
@@ -362,8 +357,6 @@ def point_label(point: Mapping[str, float]) -> str:
 
 def point_config(cfg: Config, point: Mapping[str, float]) -> Config:
     """``cfg`` with the point's values set and no sweep: what a plain run of that point would use."""
-    from agents.td3 import replace_fields
-
     agent = replace_fields(cfg.agent, {key.split(".", 1)[1]: value for key, value in point.items()})  # drop "agent."
     return dataclasses.replace(cfg, agent=agent, sweep={})
 

@@ -32,7 +32,11 @@ import subprocess
 import sys
 import tempfile
 
+import jax
+import jax.numpy as jnp
 import numpy as np
+import yaml
+from PIL import Image
 
 GL_BACKENDS = ("egl", "osmesa")
 _GL_PROBE = (
@@ -96,9 +100,9 @@ def load_policy(run_dir: str, seed: int):
     Raises :class:`RenderError` (one line) when the folder, its config or its ``final_policy.npz`` is
     missing or inconsistent, or ``seed`` is not one of the run's seed indices.
     """
-    import yaml
-
+    # imported only now, after main's choose_gl_backend: they import mujoco, which reads MUJOCO_GL once
     from swim_jax import config as cfgmod
+    from swim_jax.train import build
 
     if os.path.isdir(os.path.join(run_dir, "points")) and os.path.isfile(os.path.join(run_dir, "sweep.csv")):
         points = sorted(os.listdir(os.path.join(run_dir, "points")))
@@ -124,8 +128,6 @@ def load_policy(run_dir: str, seed: int):
     if not flat or any(v.ndim < 1 or v.shape[0] != cfg.seeds for v in flat.values()):
         raise RenderError(f"{run_dir}/final_policy.npz: arrays must have a leading axis of {cfg.seeds} seeds")
 
-    from swim_jax.train import build
-
     env, _eval_env, agent = build(cfg)
     params = unflatten({k: v[pos] for k, v in flat.items()})
     _check_params(agent, env, params, run_dir)
@@ -145,8 +147,7 @@ def unflatten(flat: dict) -> dict:
 
 
 def _check_params(agent, env, params, run_dir):
-    import jax
-
+    """Raise :class:`RenderError` unless ``params`` has the shapes of ``agent``'s actor."""
     ref = agent.actor_net.init(jax.random.key(0), np.zeros((env.observation_size,), np.float32))
     got = jax.tree_util.tree_map(np.shape, params)
     want = jax.tree_util.tree_map(np.shape, jax.tree_util.tree_map(np.asarray, ref))
@@ -165,9 +166,6 @@ def rollout(env, agent, params, key: int = 0, max_steps: int | None = None):
     Stops at termination, at the env's time limit, or after ``max_steps`` steps if given. The
     return is the sum of the env's rewards over those steps (as the evaluations compute it).
     """
-    import jax
-    import jax.numpy as jnp
-
     params = jax.tree_util.tree_map(jnp.asarray, params)
     reset = jax.jit(env.reset)
 
@@ -202,7 +200,7 @@ def render_frames(mj_model, qpos: np.ndarray, qvel: np.ndarray, width: int, heig
     Uses the model's ``track`` camera when it has one (Gymnasium's XMLs do), else a camera tracking
     body 1 (the torso). Needs ``MUJOCO_GL`` set to a working backend before ``mujoco`` is imported.
     """
-    import mujoco
+    import mujoco  # only now: MuJoCo reads MUJOCO_GL when first imported (see choose_gl_backend)
 
     model = mj_model
     model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
@@ -234,7 +232,7 @@ def ffmpeg_executable() -> str | None:
     if exe:
         return exe
     try:
-        import imageio_ffmpeg
+        import imageio_ffmpeg  # optional package: only a fallback ffmpeg binary for .mp4
 
         return imageio_ffmpeg.get_ffmpeg_exe()
     except Exception:  # noqa: BLE001 - not installed or no binary
@@ -255,8 +253,6 @@ def write_video(path: str, frames: list[np.ndarray], fps: float) -> None:
     os.chmod(tmp, 0o666 & ~umask)
     try:
         if ext == ".gif":
-            from PIL import Image
-
             imgs = [Image.fromarray(f) for f in frames]
             imgs[0].save(tmp, save_all=True, append_images=imgs[1:], duration=max(20, round(1000 / fps)),
                          loop=0, optimize=False)

@@ -30,6 +30,10 @@ import jax.numpy as jnp
 import numpy as np
 from jax.extend.core import jaxprs_in_params
 
+from agents.replay import Transition
+from swim_jax import config as cfgmod
+from swim_jax.train import build
+
 
 @dataclass(frozen=True)
 class Dot:
@@ -79,8 +83,6 @@ def _walk(jaxpr, out: list, heavy_branch: bool) -> None:
 def update_dots(agent) -> dict[bool, list[Dot]]:
     """``{False: dots of a critic-only update, True: dots of an update with the actor step}`` for
     one lane of ``agent`` (a ``TD3``), read from the jaxpr of ``agent.update``."""
-    from agents.replay import Transition
-
     b, o, a = agent.config.batch_size, agent.obs_dim, agent.action_dim
     z = lambda *shape: jnp.zeros(shape, agent.dtype)
     batch = Transition(z(b, o), z(b, a), z(b), z(b, o), z(b))
@@ -162,9 +164,6 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     if args.pin_one_core:
         os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
-    from swim_jax import config as cfgmod
-    from swim_jax.train import build
-
     try:
         cfg = cfgmod.resolve(args.config, args.set)
     except cfgmod.ConfigError as e:
