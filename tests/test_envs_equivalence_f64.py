@@ -13,7 +13,7 @@ from test_envs_equivalence import env_params, teacher_forced_errors
 ATOL_F64 = 1e-8
 # Measured (docs/ENVS.md) with MuJoCo C's Newton solver (envs/mjx_solver.py) and RK4 scheme
 # (envs/mjx_compat.py): obs <= 6.3e-13 and rewards <= 4.5e-14 for every env (with MJX's own solver:
-# up to 2.5e-6, HalfCheetah; Ant 1.0e-3 with an earlier, plain-vector reading of C's RK4).
+# up to 2.5e-6, HalfCheetah).
 # The default run checks Hopper-v5 (terminations) and HalfCheetah-v5 (most contact events).
 ALL = ("Hopper-v5", "Walker2d-v5", "HalfCheetah-v5", "Swimmer-v5", "Ant-v5", "Hopper-v4",
        "Walker2d-v4")

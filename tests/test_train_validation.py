@@ -1,6 +1,6 @@
 """Learning validation (slow): HalfCheetah-v5, ReLU and Swim, 3 seeds, 200k steps each.
 
-Target from the issue: mean evaluation return ≥ 5,000 at 200k steps for both activations
+Target: mean evaluation return ≥ 5,000 at 200k steps for both activations
 (original TD3 on gym v1: 6,833 at 200k). Hours of CPU time; run with ``pytest -m slow``.
 """
 
