@@ -29,6 +29,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from agents.replay import Transition
+from agents.td3 import TD3, ActivationConfig, TD3Config
 from swim_jax import activations as A
 from swim_jax.timing import calls_for, time_interleaved
 
@@ -131,8 +133,6 @@ def bench_elementwise(shapes, dtypes, repeats: int, clock: str = "wall") -> list
 
 def _td3_agent(activation: str, obs_dim: int, act_dim: int, dtype):
     """agents.td3.TD3 with the reference config, the given activation, actions in [−1, 1]."""
-    from agents.td3 import TD3, ActivationConfig, TD3Config
-
     return TD3(
         TD3Config(activation=ActivationConfig(name=activation)),
         obs_dim=obs_dim,
@@ -184,8 +184,6 @@ def _update_program(activation: str, dtype, obs_dim=17, act_dim=6, updates=10):
 
     ``activation`` is a registry name, or ``swim[<variant>]`` for a Swim kernel variant.
     """
-    from agents.replay import Transition
-
     agent = _td3_agent(activation, obs_dim, act_dim, dtype)  # "swim[<variant>]" is a registry name
     keys = jax.random.split(jax.random.key(2), 6)
     b = agent.config.batch_size
