@@ -150,6 +150,14 @@ def lane_inputs(cfg: Config, dtype) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     return seed_ids, hparams
 
 
+def chunk_compiler_options(cfg: Config) -> dict:
+    """XLA options of the training chunk: on a CPU backend, XLA's YNNPACK library fusions are
+    switched off unless ``cfg.xla_cpu_ynn_fusions`` (measured faster without them; config.py)."""
+    if cfg.xla_cpu_ynn_fusions or jax.default_backend() != "cpu":
+        return {}
+    return {"xla_cpu_experimental_ynn_fusion_type": ""}
+
+
 def programs(cfg: Config) -> Programs:
     """Build (or reuse, within this process) the env, agent and jitted functions for ``cfg``.
 
@@ -158,7 +166,7 @@ def programs(cfg: Config) -> Programs:
     _setup_precision(cfg)
     # every config field that changes the built program (seeds only change the lane shapes)
     key = (cfg.env, cfg.agent, cfg.learning_starts, cfgmod.steps_per_call(cfg), cfg.eval_episodes,
-           cfg.replay_size, cfg.precision, cfg.matmul_dtype, cfg.matmul_precision)
+           cfg.replay_size, cfg.precision, cfg.matmul_dtype, cfg.matmul_precision, cfg.xla_cpu_ynn_fusions)
     if key not in _PROGRAMS:
         env, eval_env, agent = build(cfg)
         def init_lanes(base, seed_ids, hparams=None):
@@ -166,7 +174,7 @@ def programs(cfg: Config) -> Programs:
 
         init_fn = jax.jit(init_lanes)
         chunk_fn = jax.jit(loop.make_chunk_fn(agent, env, cfg.learning_starts, cfgmod.steps_per_call(cfg)),
-                           donate_argnums=0)
+                           donate_argnums=0, compiler_options=chunk_compiler_options(cfg))
         eval_fn = jax.jit(loop.make_eval_fn(agent, eval_env, cfg.eval_episodes, cfg.env.max_episode_steps))
         _PROGRAMS[key] = Programs(env, eval_env, agent, init_fn, chunk_fn, eval_fn)
     return _PROGRAMS[key]

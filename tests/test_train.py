@@ -514,3 +514,14 @@ def test_divergence_stops_with_message_and_keeps_last_good_checkpoint(tmp_path):
                                jax.ShapeDtypeStruct((5, 2, 5), jnp.float32)))
     assert all(np.all(np.isfinite(np.asarray(x))) for x in jax.tree.leaves(st.agent))
     assert np.all(np.isfinite(np.asarray(ev)[:2])) and np.all(np.isnan(np.asarray(ev)[2:]))
+
+
+def test_ynn_fusions_are_off_in_the_cpu_training_chunk_unless_asked_for():
+    """The chunk's compiler options reach XLA: YNNPACK fusions only with xla_cpu_ynn_fusions=true."""
+    def compiled_text(cfg):
+        prog = train.programs(cfg)
+        states = prog.init_fn(jnp.asarray(0, jnp.uint32), jnp.arange(1, dtype=jnp.int32))
+        return prog.chunk_fn.lower(states, jnp.asarray(0, jnp.int32), None).compile().as_text()
+
+    assert "__ynn_fusion" not in compiled_text(tiny("seeds=1", "pad_single_seed=false"))
+    assert "__ynn_fusion" in compiled_text(tiny("seeds=1", "pad_single_seed=false", "xla_cpu_ynn_fusions=true"))
