@@ -26,40 +26,47 @@ import optax
 
 from agents.networks import Actor, NetworkOptions, TwinCritic
 from agents.replay import Transition
+from swim_jax.activations import param_names, parameter_defaults
 
 Array = jax.Array
 
-# Which activation parameter each activation takes from ActivationConfig.
-_ACTIVATION_PARAM_FIELDS = {"swim": ("k",), "swish": ("beta",)}
 
-
-@dataclass(frozen=True)
-class ActivationConfig:
-    """Activation in every hidden layer: registry ``name``; ``k`` used by swim, ``beta`` by swish;
-    ``learnable`` makes that parameter a per-layer trainable weight."""
-
-    name: str = "relu"
-    k: float = 0.5
-    beta: float = 1.0
-    learnable: bool = False
-
-    def params(self) -> dict[str, Any]:
-        """The registry parameters this activation takes (e.g. {"k": 0.5} for swim, {} for relu).
-        A value set by :meth:`TD3.with_hparams` stays a (traced) array; config values are floats."""
-        return {f: _as_param(getattr(self, f)) for f in _ACTIVATION_PARAM_FIELDS.get(self.name, ())}
+def _activation_params(self) -> dict[str, Any]:
+    """The registry parameters this activation takes (e.g. {"k": 0.5} for swim, {} for relu).
+    A value set by :meth:`TD3.with_hparams` stays a (traced) array; config values are floats."""
+    return {f: _as_param(getattr(self, f)) for f in param_names(self.name)}
 
 
 def _as_param(v):
     return v if isinstance(v, jax.Array) else float(v)
 
 
+# One float field per parameter of the activation registry (k, beta, alpha, ...), so adding an
+# activation to swim_jax.activations.ACTIVATIONS adds its config key agent.activation.<param>.
+ActivationConfig = dataclasses.make_dataclass(
+    "ActivationConfig",
+    [("name", str, field(default="relu"))]
+    + [(p, float, field(default=d)) for p, d in parameter_defaults().items()]
+    + [("learnable", bool, field(default=False))],
+    frozen=True,
+    namespace={
+        "__module__": __name__,
+        "__doc__": "Activation in every hidden layer: registry ``name``, one float field per "
+                   "parameter of the registry (each activation uses its own: ``k`` swim, ``beta`` "
+                   "swish, ``alpha`` elu; defaults from the registry); ``learnable`` makes them "
+                   "per-layer trainable weights.",
+        "params": _activation_params,
+    },
+)
+
+
 def sweepable_fields(activation: str) -> tuple[str, ...]:
     """Float fields of :class:`TD3Config` that may differ between the lanes of one compiled program
     (sweep axes), as paths relative to the agent config: learning rates, γ, τ, the three noise
-    scales and the activation's own parameter (``activation.k`` for swim, ``activation.beta`` for
-    swish). Integer/structural fields (widths, batch size, policy_freq) change shapes or control
-    flow and cannot be swept."""
-    own = tuple(f"activation.{f}" for f in _ACTIVATION_PARAM_FIELDS.get(activation, ()))
+    scales and the activation's own parameters (``activation.k`` for swim, ``activation.beta`` for
+    swish: its registry spec's parameters). Integer/structural fields (widths, batch size,
+    policy_freq) change shapes or control flow and cannot be swept."""
+    own = tuple(f"activation.{f}" for f in param_names(activation))
     return ("actor_lr", "critic_lr", "discount", "tau", "policy_noise", "noise_clip", "expl_noise") + own
 
 

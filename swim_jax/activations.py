@@ -17,15 +17,22 @@ the result; f(+inf) = +inf, f(−inf) = 0, f'(+inf) = 1, f'(−inf) = 0 exactly;
 input; NaN in gives NaN out; the input dtype is kept.
 
 Rivals share the calling convention ``fn(x, **params)``: ``swish(x, beta=1)``, ``relu(x)``,
-``hard_swish(x)``, ``mish(x)``. ``get_activation(name, **params)`` returns ``x -> y``;
-``Activation`` is a flax.linen module that can hold the parameter (k, beta) as a learnable
-per-layer weight.
+``hard_swish(x)``, ``mish(x)``, ``elu(x, alpha=1)``. ``get_activation(name, **params)`` returns
+``x -> y``; ``Activation`` is a flax.linen module that can hold the parameters (k, beta, alpha) as
+learnable per-layer weights.
+
+``ACTIVATIONS`` is the one description of every activation that the rest of the code derives
+from: its function, its parameters (name, default, valid range, legend symbol), its display name,
+its reserved figure colour. From it come the config fields ``agent.activation.<param>``
+(``agents.td3.ActivationConfig``), config validation, the sweepable and learnable parameters, the
+report's run labels (:class:`ActivationSetting`: ``swim(k=0.75)+learnable``), their display names
+(``Swim(k=0.75)``), the figures' colours and legends. Adding an activation is one entry there.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import partial
 from typing import Callable, Mapping
 
@@ -48,8 +55,18 @@ __all__ = [
     "relu",
     "hard_swish",
     "mish",
+    "elu",
     "ACTIVATIONS",
+    "ActivationParam",
     "ActivationSpec",
+    "ActivationSetting",
+    "get_spec",
+    "param_names",
+    "parameter_defaults",
+    "learnable_activations",
+    "label_activation",
+    "display_name",
+    "legend_name",
     "get_activation",
     "validate_params",
     "Activation",
@@ -262,34 +279,106 @@ def mish(x: Array) -> Array:
     return x * jnp.tanh(jax.nn.softplus(x))
 
 
+def elu(x: Array, alpha=1.0) -> Array:
+    """ELU (Clevert et al. 2016): f(x) = x for x > 0, α·(eˣ − 1) otherwise, α > 0.
+
+    f'(x) = 1 for x > 0, α·eˣ otherwise (α at the kink x = 0, the left derivative); ∂f/∂α = eˣ − 1
+    for x ≤ 0, 0 otherwise. Plain autodiff: JAX differentiates expm1 as expm1(x) + 1, so f' is exact
+    to an absolute ~eps·α (far left, α·eˣ < eps·α, it rounds to 0). The exponential sees 0 where
+    x > 0, so a large positive x cannot overflow it (nor make the unselected branch's derivative
+    inf·0 = NaN). ``alpha`` (a float, or an array broadcastable against x, traced when swept or
+    learned) is cast to x's dtype.
+    """
+    x = jnp.asarray(x)
+    if not isinstance(alpha, jax.core.Tracer):
+        validate_params("elu", {"alpha": alpha})
+    alpha = jnp.asarray(alpha, x.dtype)
+    return jnp.where(x > 0, x, alpha * jnp.expm1(jnp.where(x > 0, 0, x)))
+
+
 # ---------------------------------------------------------------------------------------------
 # Registry
 # ---------------------------------------------------------------------------------------------
 
 
 @dataclass(frozen=True)
+class ActivationParam:
+    """One parameter of an activation: its ``name`` (also the config key ``agent.activation.<name>``),
+    its ``default``, the open interval ``(low, high)`` of valid values (which must also be finite)
+    and the ``symbol`` legends write (the name when empty)."""
+
+    name: str
+    default: float
+    low: float = 0.0
+    high: float = math.inf
+    symbol: str = ""
+
+    def problem(self, value) -> str | None:
+        """Why ``value`` (a number or an array, every element checked) is not a valid value of this
+        parameter, as ``"it must be finite and > 0"``; None when it is valid."""
+        arr = np.asarray(value)
+        if np.issubdtype(arr.dtype, np.number) and np.all(np.isfinite(arr)) and np.all((arr > self.low) & (arr < self.high)):
+            return None
+        bound = f"> {self.low:g}" if self.high == math.inf else f"in ({self.low:g}, {self.high:g})"
+        return f"it must be finite and {bound}"
+
+
+@dataclass(frozen=True)
 class ActivationSpec:
-    """A registered activation: its function ``fn(x, **params)`` and default parameters."""
+    """A registered activation: ``fn(x, **params)``; its ``params`` (:class:`ActivationParam`, each
+    a keyword of ``fn``); ``display``, its name in tables and legends (the registry name when
+    empty); ``color``, the hex colour reserved for its plain label in the report's figures (None:
+    it gets a generated colour like any other label); ``paper``: one of the paper's activations
+    (Figures 1 and 2, and listed first, in registry order, in the report)."""
 
     fn: Callable[..., Array]
-    defaults: Mapping[str, float]
+    params: tuple[ActivationParam, ...] = ()
+    display: str = ""
+    color: str | None = None
+    paper: bool = False
+
+    @property
+    def defaults(self) -> dict[str, float]:
+        """``{param: default}``: ``{"k": 0.5}`` for Swim, ``{}`` for ReLU."""
+        return {p.name: p.default for p in self.params}
 
 
 ACTIVATIONS: dict[str, ActivationSpec] = {
-    "swim": ActivationSpec(swim, {"k": 0.5}),
-    "swish": ActivationSpec(swish, {"beta": 1.0}),
-    "relu": ActivationSpec(relu, {}),
-    "hard_swish": ActivationSpec(hard_swish, {}),
-    "mish": ActivationSpec(mish, {}),
+    "swim": ActivationSpec(swim, (ActivationParam("k", 0.5),), "Swim", "#d62728", paper=True),  # tab:red
+    "swish": ActivationSpec(swish, (ActivationParam("beta", 1.0, symbol="β"),), "Swish", "#1f77b4", paper=True),  # tab:blue
+    "relu": ActivationSpec(relu, (), "ReLU", "#2ca02c", paper=True),  # tab:green
+    "hard_swish": ActivationSpec(hard_swish),
+    "mish": ActivationSpec(mish),
+    "elu": ActivationSpec(elu, (ActivationParam("alpha", 1.0, symbol="α"),), "ELU"),
 }
 
 
-def _spec(name: str) -> ActivationSpec:
-    """The spec of a registry name, or of ``swim[<variant>]`` (Swim with that kernel; benchmarks)."""
+def _check_registry(registry: Mapping[str, ActivationSpec]) -> None:
+    """Each parameter name is ONE config field (``agent.activation.<name>``) shared by every
+    activation that takes it, so those must agree on its default, and it cannot be another member
+    of the activation config (``name``, ``learnable``, ``params``); each default must be valid.
+    Raises ValueError naming the offending entry."""
+    defaults: dict[str, float] = {}
+    for act, spec in registry.items():
+        for p in spec.params:
+            if p.name in ("name", "learnable", "params") or not p.name.isidentifier():
+                raise ValueError(f"activation {act!r}: parameter name {p.name!r} is reserved or not an identifier")
+            if defaults.setdefault(p.name, p.default) != p.default:
+                raise ValueError(f"activation {act!r}: parameter {p.name} defaults to {p.default}, another "
+                                 f"activation's {p.name} to {defaults[p.name]} (one config field, one default)")
+            if p.problem(p.default):
+                raise ValueError(f"activation {act!r}: default {p.name}={p.default} is invalid; {p.problem(p.default)}")
+
+
+_check_registry(ACTIVATIONS)
+
+
+def get_spec(name: str) -> ActivationSpec:
+    """The spec of a registry name, or of ``swim[<variant>]`` (Swim with that kernel; benchmarks).
+    Unknown names raise ValueError listing the valid ones."""
     base, _, rest = name.partition("[")
     if base == "swim" and rest.endswith("]") and rest[:-1] in SWIM_VARIANTS:
-        variant = rest[:-1]
-        return ActivationSpec(lambda x, k=0.5: swim(x, k, variant), ACTIVATIONS["swim"].defaults)
+        return replace(ACTIVATIONS["swim"], fn=partial(swim, variant=rest[:-1]))
     if name not in ACTIVATIONS:
         raise ValueError(
             f"unknown activation {name!r}; valid: {', '.join(sorted(ACTIVATIONS))}"
@@ -297,13 +386,33 @@ def _spec(name: str) -> ActivationSpec:
     return ACTIVATIONS[name]
 
 
+def param_names(name: str) -> tuple[str, ...]:
+    """The parameters activation ``name`` takes, in spec order: ``("k",)`` for swim (and its kernel
+    variants), ``()`` for relu and for unknown names (which :func:`get_spec` refuses)."""
+    try:
+        return tuple(p.name for p in get_spec(name).params)
+    except ValueError:
+        return ()
+
+
+def parameter_defaults() -> dict[str, float]:
+    """Every parameter name of the registry with its default, in registry order
+    (``{"k": 0.5, "beta": 1.0, "alpha": 1.0}``): the parameter fields of the activation config."""
+    return {p.name: p.default for spec in ACTIVATIONS.values() for p in spec.params}
+
+
+def learnable_activations() -> tuple[str, ...]:
+    """Registry names with at least one parameter, in registry order: those that can learn them."""
+    return tuple(name for name, spec in ACTIVATIONS.items() if spec.params)
+
+
 def validate_params(name: str, params: Mapping[str, object]) -> dict[str, float]:
     """Check ``params`` for activation ``name``; return them merged over the defaults.
 
-    Raises ValueError naming the valid parameter names, or the valid range (finite and > 0) for a
-    bad value. Traced values are accepted unchecked.
+    Raises ValueError naming the valid parameter names, or a bad value's valid range from its
+    :class:`ActivationParam` ("it must be finite and > 0"). Traced values are accepted unchecked.
     """
-    spec = _spec(name)
+    spec = get_spec(name)
     unknown = set(params) - set(spec.defaults)
     if unknown:
         valid = ", ".join(sorted(spec.defaults)) or "none"
@@ -311,14 +420,11 @@ def validate_params(name: str, params: Mapping[str, object]) -> dict[str, float]
             f"unknown parameter(s) {', '.join(sorted(unknown))} for activation {name!r}; valid: {valid}"
         )
     merged = {**spec.defaults, **params}
-    for key, value in merged.items():
-        if isinstance(value, jax.core.Tracer):
-            continue
-        arr = np.asarray(value)
-        if not np.issubdtype(arr.dtype, np.number) or not (np.all(np.isfinite(arr)) and np.all(arr > 0)):
-            raise ValueError(
-                f"activation {name!r}: parameter {key}={value!r} is invalid; it must be finite and > 0"
-            )
+    for p in spec.params:
+        value = merged[p.name]
+        problem = None if isinstance(value, jax.core.Tracer) else p.problem(value)
+        if problem:
+            raise ValueError(f"activation {name!r}: parameter {p.name}={value!r} is invalid; {problem}")
     return merged
 
 
@@ -328,7 +434,7 @@ def get_activation(name: str, **params) -> Callable[[Array], Array]:
     ``get_activation("swim", k=0.75)``; unknown names or parameters raise ValueError that lists
     the valid choices.
     """
-    spec = _spec(name)
+    spec = get_spec(name)
     merged = validate_params(name, params)
 
     def activation(x: Array) -> Array:
@@ -341,9 +447,11 @@ def get_activation(name: str, **params) -> Callable[[Array], Array]:
 class Activation(nn.Module):
     """A registered activation as a flax.linen layer.
 
-    ``Activation(kind="swim", params={"k": 0.5}, learnable=False)``. With ``learnable=False`` (default) the parameters are constants. With ``learnable=True`` each
-    parameter (k for Swim, beta for Swish) becomes a scalar flax param of this layer, initialised to
-    its configured value, so every layer learns its own k (the paper's proposed future work).
+    ``Activation(kind="swim", params={"k": 0.5}, learnable=False)``. With ``learnable=False``
+    (default) the parameters are constants. With ``learnable=True`` each parameter of the spec (k
+    for Swim, beta for Swish, alpha for ELU) becomes a scalar flax param of this layer named after
+    it, initialised to its configured value, so every layer learns its own k (the paper's proposed
+    future work).
     """
 
     kind: str | None = None
@@ -354,7 +462,7 @@ class Activation(nn.Module):
     def __call__(self, x: Array) -> Array:
         if self.kind is None:
             raise ValueError(f"Activation needs kind=<name>; valid: {', '.join(sorted(ACTIVATIONS))}")
-        spec = _spec(self.kind)
+        spec = get_spec(self.kind)
         values = validate_params(self.kind, dict(self.params or {}))
         if self.learnable:
             if not values:
@@ -364,3 +472,65 @@ class Activation(nn.Module):
                 for key, v in values.items()
             }
         return spec.fn(x, **values)
+
+
+# ---------------------------------------------------------------------------------------------
+# Labels: how runs name their activation in the report
+# ---------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class ActivationSetting:
+    """What a run's hidden layers used: the registry ``name``, the value of every parameter of its
+    spec (``(("k", 0.75),)``) and whether those were ``learnable``."""
+
+    name: str
+    params: tuple[tuple[str, float], ...] = ()
+    learnable: bool = False
+
+    @classmethod
+    def from_config(cls, act: Mapping) -> "ActivationSetting":
+        """From a config's ``agent.activation`` mapping (a run's config.yaml): ``name``, the values
+        of the parameters that activation takes (missing or null ones at their defaults, others
+        ignored; an unknown name takes none) and ``learnable``. A non-number raises ValueError."""
+        name = str(act.get("name"))
+        spec = ACTIVATIONS.get(name)
+        params = tuple((p.name, p.default if act.get(p.name) is None else float(act[p.name]))
+                       for p in (spec.params if spec else ()))
+        return cls(name, params, bool(act.get("learnable")))
+
+    @property
+    def label(self) -> str:
+        """``name``, then the parameters that differ from their defaults (``swim(k=0.75)``, values
+        ``:g``-formatted), then ``+learnable`` for learnable parameters (``swim+learnable``)."""
+        defaults = ACTIVATIONS[self.name].defaults if self.name in ACTIVATIONS else {}
+        changed = [f"{key}={value:g}" for key, value in self.params if value != defaults.get(key)]
+        label = f"{self.name}({','.join(changed)})" if changed else self.name
+        return label + ("+learnable" if self.learnable else "")
+
+
+def label_activation(label: str) -> str | None:
+    """The registry name a run label is made of: the label itself, or followed by its parameters or
+    ``+learnable`` (``swim(k=1)+learnable[tau=0.01]`` → swim). None for any other label, including
+    a default-parameter point of a sweep over other values (``swim[tau=0.01]``)."""
+    base = label.split("(")[0].split("+")[0]
+    return base if base in ACTIVATIONS else None
+
+
+def display_name(label: str) -> str:
+    """A run label for tables and legends: the activation's display name, the rest kept
+    (``swim(k=0.75)`` → ``Swim(k=0.75)``); labels without one unchanged (``mish``)."""
+    name = label_activation(label)
+    if name is None or not ACTIVATIONS[name].display:
+        return label
+    return ACTIVATIONS[name].display + label[len(name):]
+
+
+def legend_name(name: str) -> str:
+    """An activation at its default parameters, for figure legends: ``Swim (k=0.5)``,
+    ``Swish (β=1)``, ``ReLU``."""
+    spec = get_spec(name)
+    title = spec.display or name
+    if not spec.params:
+        return title
+    return f"{title} ({', '.join(f'{p.symbol or p.name}={p.default:g}' for p in spec.params)})"

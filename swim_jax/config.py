@@ -22,7 +22,7 @@ import yaml
 
 import envs
 from agents.td3 import ActivationConfig, TD3Config, replace_fields, sweepable_fields
-from swim_jax.activations import ACTIVATIONS, validate_params
+from swim_jax.activations import ACTIVATIONS, learnable_activations, validate_params
 from swim_jax import tensorboard_log
 
 CONFIG_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "configs")
@@ -288,7 +288,8 @@ def validate(cfg: Config) -> Config:
     except ValueError as e:
         raise ConfigError(str(e)) from None
     if act.learnable and not act.params():
-        raise ConfigError(f"agent.activation.learnable=true needs an activation with a parameter; valid: swim, swish")
+        raise ConfigError("agent.activation.learnable=true needs an activation with a parameter; "
+                          f"valid: {', '.join(learnable_activations())}")
     if cfg.matmul_precision not in MATMUL_PRECISIONS:
         raise ConfigError(f"unknown matmul_precision {cfg.matmul_precision!r}; valid: {', '.join(MATMUL_PRECISIONS)}")
     if cfg.matmul_dtype not in MATMUL_DTYPES:

@@ -1,7 +1,8 @@
 """Log the trajectory of learnable activation parameters (``agent.activation.learnable=true``).
 
-With a learnable activation every hidden layer of the actor and of each critic owns a scalar
-(``k`` for Swim, ``beta`` for Swish; see ``swim_jax.activations.Activation``). This module reads
+With a learnable activation every hidden layer of the actor and of each critic owns a scalar per
+activation parameter (``k`` for Swim, ``beta`` for Swish, ``alpha`` for ELU: the parameters in
+``swim_jax.activations.ACTIVATIONS``; see ``swim_jax.activations.Activation``). This module reads
 them out of a batched training state and appends them to ``activation_params.csv``:
 
     step,seed,param,value          param = actor/act_0/k, critic_1/act_1/k, critic_2/act_0/k, ...
@@ -18,8 +19,10 @@ import os
 import jax
 import numpy as np
 
+from swim_jax.activations import parameter_defaults
+
 FILENAME = "activation_params.csv"
-LEARNABLE_NAMES = ("k", "beta")
+LEARNABLE_NAMES = tuple(parameter_defaults())  # leaf names of learnable activation parameters
 
 
 def _path_str(path) -> list[str]:
@@ -29,8 +32,9 @@ def _path_str(path) -> list[str]:
 def activation_params(actor, critic) -> dict[str, np.ndarray]:
     """``{"actor/act_0/k": [L], "critic_1/act_0/k": [L], ...}`` from lane-batched parameters.
 
-    Leaves named ``k`` or ``beta`` are the learnable activation parameters; the twin critics'
-    leaves carry a critic axis after the lane axis, split into ``critic_1`` and ``critic_2``.
+    Leaves named after an activation parameter (:data:`LEARNABLE_NAMES`: ``k``, ``beta``, ...) are
+    the learnable activation parameters; the twin critics' leaves carry a critic axis after the
+    lane axis, split into ``critic_1`` and ``critic_2``.
     Empty when the activation has no learnable parameter."""
     out: dict[str, np.ndarray] = {}
     for net, tree in (("actor", actor), ("critic", critic)):

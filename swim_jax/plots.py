@@ -1,8 +1,10 @@
 """``python -m swim_jax.plots activations --out DIR``: the paper's Figures 1 and 2.
 
-Figure 1: Swim (k = 0.5), Swish (β = 1) and ReLU over [−6, 6], and zoomed on the negative region.
-Figure 2: their first derivatives (computed by jax.grad through each function's own derivative
-rule, i.e. Swim's custom rsqrt JVP), likewise. Written as PNG files; headless (matplotlib Agg).
+Figure 1: the paper's activations (``paper=True`` in ``swim_jax.activations.ACTIVATIONS``: Swim
+(k = 0.5), Swish (β = 1) and ReLU) at their default parameters over [−6, 6], and zoomed on the
+negative region. Figure 2: their first derivatives (computed by jax.grad through each function's
+own derivative rule, i.e. Swim's custom rsqrt JVP), likewise. Written as PNG files; headless
+(matplotlib Agg).
 """
 
 from __future__ import annotations
@@ -19,19 +21,20 @@ import jax.numpy as jnp  # noqa: E402
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from swim_jax.activations import get_activation  # noqa: E402
+from swim_jax.activations import ACTIVATIONS, get_activation, legend_name  # noqa: E402
 
-CURVES = (("Swim (k=0.5)", "swim", {"k": 0.5}), ("Swish (β=1)", "swish", {"beta": 1.0}), ("ReLU", "relu", {}))
+PAPER = tuple(name for name, spec in ACTIVATIONS.items() if spec.paper)  # swim, swish, relu
 FULL_RANGE, NEGATIVE_RANGE = (-6.0, 6.0), (-10.0, 0.5)
 
 
 def curves(x: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """label -> (f(x), f'(x)) for Swim, Swish and ReLU, evaluated in float32 with JAX."""
+    """legend label (``Swim (k=0.5)``) -> (f(x), f'(x)) for each of :data:`PAPER` at its default
+    parameters, evaluated in float32 with JAX."""
     xs = jnp.asarray(x, jnp.float32)
     out = {}
-    for label, name, params in CURVES:
-        fn = get_activation(name, **params)
-        out[label] = (np.asarray(fn(xs)), np.asarray(jax.vmap(jax.grad(fn))(xs)))
+    for name in PAPER:
+        fn = get_activation(name)
+        out[legend_name(name)] = (np.asarray(fn(xs)), np.asarray(jax.vmap(jax.grad(fn))(xs)))
     return out
 
 
@@ -62,8 +65,10 @@ def plot_activations(out_dir: Path) -> list[Path]:
     """Write fig1_activations.png and fig2_derivatives.png to ``out_dir``; return their paths."""
     out_dir.mkdir(parents=True, exist_ok=True)
     paths = [out_dir / "fig1_activations.png", out_dir / "fig2_derivatives.png"]
-    _figure(0, paths[0], "Figure 1: Swim, Swish and ReLU")
-    _figure(1, paths[1], "Figure 2: first derivatives of Swim, Swish and ReLU")
+    names = [ACTIVATIONS[name].display or name for name in PAPER]
+    listed = f"{', '.join(names[:-1])} and {names[-1]}"
+    _figure(0, paths[0], f"Figure 1: {listed}")
+    _figure(1, paths[1], f"Figure 2: first derivatives of {listed}")
     return paths
 
 

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import colorsys
 import math
-import re
 
 import matplotlib
 
@@ -20,10 +19,10 @@ import numpy as np  # noqa: E402
 from matplotlib.colors import to_hex, to_rgb  # noqa: E402
 from matplotlib.ticker import FuncFormatter, NullFormatter  # noqa: E402
 
-from swim_jax.runs_io import DEFAULT_PARAMS  # noqa: E402
+from swim_jax.activations import ACTIVATIONS, display_name  # noqa: E402
 
-COLORS = {"swim": "#d62728", "swish": "#1f77b4", "relu": "#2ca02c"}  # tab:red, tab:blue, tab:green
-NAMES = {"swim": "Swim", "swish": "Swish", "relu": "ReLU"}
+# the reserved colours of the registry (Swim tab:red, Swish tab:blue, ReLU tab:green)
+COLORS = {name: spec.color for name, spec in ACTIVATIONS.items() if spec.color}
 # other labels (parameter variants, sweep points): tab10 without the three above, then the light
 # tab20 shades except light red/blue/green; beyond those 14, generated hues (extra_colors)
 _EXTRA_PALETTE = ("#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf",
@@ -66,14 +65,6 @@ def curve_colors(labels) -> dict[str, str]:
     out = {lab: COLORS[lab] for lab in labels if lab in COLORS}
     out.update(zip(others, extra_colors(len(others))))
     return {lab: out[lab] for lab in labels}
-
-
-def display_name(label: str) -> str:
-    """``swim`` → ``Swim``; labels with parameters keep them (``Swim(k=0.75)``)."""
-    for k, v in NAMES.items():
-        if label == k or label.startswith(k + "(") or label.startswith(k + "+"):
-            return v + label[len(k):]
-    return label
 
 
 def _steps_label(x, _pos=None) -> str:
@@ -170,28 +161,24 @@ def learning_figure(table: dict, colors: dict[str, str], paths: list[str]) -> No
         _save(fig, paths)
 
 
-_PARAM_LABEL = re.compile(r"^(?P<act>[a-z_]+)(?:\((?P<key>\w+)=(?P<val>[^)]+)\))?(?P<learn>\+learnable)?$")
-
-
 def parameter_series(groups: dict) -> dict:
     """``{(env, activation, param): [(value, final returns[seeds], best-curve mean), ...]}`` for every
-    activation that appears with ≥ 2 values of its parameter in one env (a k or beta sweep; the
-    unparameterised label counts as the paper's default). With ``+learnable`` the value is the
-    initial one (series key ``"swim+learnable"``). Labels with other sweep values
-    (``swim(k=1)[tau=0.01]``) are left out."""
+    activation parameter that takes ≥ 2 values in one env (a k or beta sweep) among the curves of
+    that activation whose other parameters are at their defaults. With ``+learnable`` the value is
+    the initial one (series key ``"swim+learnable"``). Curves of sweep points with other swept
+    values (``swim(k=1)[tau=0.01]``) are left out. Read from each curve's activation setting."""
     out = {}
     for env, g in groups.items():
         by_act: dict = {}
-        for label, c in g.curves.items():
-            m = _PARAM_LABEL.match(label)
-            if not m or m["act"] not in DEFAULT_PARAMS:
+        for c in g.curves.values():
+            s = c.setting
+            if s is None or c.sweep_suffix or s.name not in ACTIVATIONS:
                 continue
-            key, default = DEFAULT_PARAMS[m["act"]]
-            value = float(m["val"]) if m["val"] is not None else default
-            if m["key"] not in (None, key):
-                continue
-            by_act.setdefault((env, m["act"] + (m["learn"] or ""), key), []).append(
-                (value, c.returns[-1], float(c.returns.mean(axis=1).max())))
+            values, defaults = dict(s.params), ACTIVATIONS[s.name].defaults
+            for key in values:
+                if all(values[o] == defaults[o] for o in values if o != key):
+                    by_act.setdefault((env, s.name + ("+learnable" if s.learnable else ""), key), []).append(
+                        (values[key], c.returns[-1], float(c.returns.mean(axis=1).max())))
         out.update({k: sorted(v, key=lambda t: t[0]) for k, v in by_act.items() if len(v) >= 2})
     return out
 

@@ -6,7 +6,9 @@ mean evaluation returns; evaluation ``i`` is at step ``i · eval_freq``). See ``
 Grouping policy (documented in the report too):
 
 * one group per ``env.id``; inside it one curve set per activation label (the activation name, plus
-  its parameter when it differs from the paper's default: ``swim(k=0.75)``, ``swish(beta=2)``);
+  its parameters that differ from their defaults: ``swim(k=0.75)``, ``swish(beta=2)``, and
+  ``+learnable``; ``swim_jax.activations.ActivationSetting``). A config.yaml written before an
+  activation parameter existed reads as having that parameter's default;
 * several run folders with the same (env, activation label) are pooled as more seeds. They must agree
   on every config key except ``seeds``, ``first_seed``, ``seed``, ``name``, ``out_dir`` and
   ``keep_checkpoints``, and must not share a seed (same base ``seed`` and seed index) — else refused;
@@ -35,10 +37,10 @@ import numpy as np
 import yaml
 
 from swim_jax import learning_log
+from swim_jax.activations import ACTIVATIONS, ActivationSetting, label_activation, parameter_defaults
 
 POOL_IGNORED_KEYS = frozenset({"seeds", "first_seed", "seed", "name", "out_dir", "keep_checkpoints",
                                "shard_lanes", "host_devices"})  # placement only, same experiment
-DEFAULT_PARAMS = {"swim": ("k", 0.5), "swish": ("beta", 1.0)}
 
 
 class RunError(ValueError):
@@ -69,12 +71,14 @@ class Run:
     path: str
     config: dict
     env: str
-    activation: str  # label, see activation_label
+    activation: str  # label: setting.label + sweep_suffix
     total_steps: int
     eval_freq: int
     seed_ids: list  # (base seed, seed index) per column
     returns: np.ndarray  # [n_evals, seeds]
     metrics: LearningMetrics | None = None  # from metrics.csv; None without one
+    setting: ActivationSetting | None = None  # the activation the label names
+    sweep_suffix: str = ""  # a sweep point's other swept values, "[tau=0.01]"; "" otherwise
 
     @property
     def expected_evals(self) -> int:
@@ -87,7 +91,8 @@ class Run:
 
 @dataclass
 class Curves:
-    """Pooled curves of one (env, activation): ``returns[n_evals, n_seeds]`` at ``steps``."""
+    """Pooled curves of one (env, activation): ``returns[n_evals, n_seeds]`` at ``steps``; the label's
+    activation ``setting`` and ``sweep_suffix`` are those of its runs (pooled runs share them)."""
 
     env: str
     activation: str
@@ -96,6 +101,8 @@ class Curves:
     runs: list = field(default_factory=list)  # paths
     metrics: LearningMetrics | None = None  # pooled over the runs with a metrics.csv (None: no run has one)
     runs_without_metrics: list = field(default_factory=list)  # paths
+    setting: ActivationSetting | None = None
+    sweep_suffix: str = ""
 
     @property
     def n_seeds(self) -> int:
@@ -119,45 +126,32 @@ class EnvGroup:
 
 
 def activation_label(act: dict) -> str:
-    """``name``, with the parameter appended when not the paper's default (``swim(k=0.75)``) and
-    ``+learnable`` for learnable parameters."""
-    name = str(act.get("name"))
-    label = name
-    if name in DEFAULT_PARAMS:
-        key, default = DEFAULT_PARAMS[name]
-        val = act.get(key, default)
-        if val is not None and float(val) != default:
-            label = f"{name}({key}={float(val):g})"
-    if act.get("learnable"):
-        label += "+learnable"
-    return label
+    """The label of a config's ``agent.activation`` mapping: ``name``, with the parameters that
+    differ from their registry defaults (``swim(k=0.75)``) and ``+learnable`` for learnable
+    parameters (:class:`swim_jax.activations.ActivationSetting`)."""
+    return ActivationSetting.from_config(act).label
+
+
+def _with_default_activation_params(cfg: dict) -> dict:
+    """``cfg`` with every registry activation parameter its ``agent.activation`` lacks set to the
+    default, so a run folder written before that parameter existed pools with newer ones."""
+    act = cfg["agent"]["activation"]
+    missing = {k: v for k, v in parameter_defaults().items() if k not in act}
+    if not missing:
+        return cfg
+    return {**cfg, "agent": {**cfg["agent"], "activation": {**act, **missing}}}
 
 
 def load_run(path: str) -> Run:
     """Read and validate one run folder; raise :class:`RunError` (one line) if missing or corrupt."""
-    if not os.path.isdir(path):
-        raise RunError(f"{path}: not a directory")
-    cfg_path = os.path.join(path, "config.yaml")
-    ev_path = os.path.join(path, "evaluations.npy")
-    for p in (cfg_path, ev_path):
-        if not os.path.isfile(p):
-            inner = sorted(e for e in os.listdir(path)
-                           if os.path.isfile(os.path.join(path, e, "config.yaml")))
-            hint = (f"; it contains {len(inner)} run folder(s) such as {os.path.join(path, inner[0])}: "
-                    f"pass those instead" if inner else " (not a swim_jax.train run folder?)")
-            raise RunError(f"{path}: missing {os.path.basename(p)}{hint}")
-    try:
-        with open(cfg_path) as f:
-            cfg = yaml.safe_load(f)
-    except (yaml.YAMLError, OSError, UnicodeDecodeError) as e:
-        raise RunError(f"{cfg_path}: unreadable YAML ({_one_line(e)})") from None
-    if not isinstance(cfg, dict):
-        raise RunError(f"{cfg_path}: expected a mapping, got {type(cfg).__name__}")
+    cfg_path, ev_path = _run_files(path)
+    cfg = _read_config(cfg_path)
     try:
         env = cfg["env"]["id"]
         act = cfg["agent"]["activation"]
         if not isinstance(act, dict) or "name" not in act:
             raise KeyError("agent.activation.name")
+        setting = ActivationSetting.from_config(act)
         total_steps = _pos_int(cfg["total_steps"], "total_steps")
         eval_freq = _pos_int(cfg["eval_freq"], "eval_freq")
         seeds = _pos_int(cfg["seeds"], "seeds")
@@ -170,11 +164,54 @@ def load_run(path: str) -> Run:
     if total_steps % eval_freq:
         raise RunError(f"{cfg_path}: total_steps={total_steps} is not a multiple of eval_freq={eval_freq} "
                        f"(swim_jax.train evaluates every eval_freq steps up to total_steps, so it must divide it)")
+    returns = _read_returns(ev_path, 1 + total_steps // eval_freq, seeds)
+    suffix = _point_suffix(path, act)
+    return Run(
+        path=path, config=_with_default_activation_params(cfg), env=env, activation=setting.label + suffix,
+        total_steps=total_steps,
+        eval_freq=eval_freq, seed_ids=[(base_seed, first_seed + i) for i in range(seeds)],
+        returns=returns,
+        metrics=load_metrics(path, eval_freq, total_steps, [first_seed + i for i in range(seeds)]),
+        setting=setting, sweep_suffix=suffix,
+    )
+
+
+def _run_files(path: str) -> tuple[str, str]:
+    """``(config.yaml, evaluations.npy)`` of the run folder ``path``; :class:`RunError` when either
+    is missing (with a hint when ``path`` holds run folders instead)."""
+    if not os.path.isdir(path):
+        raise RunError(f"{path}: not a directory")
+    cfg_path = os.path.join(path, "config.yaml")
+    ev_path = os.path.join(path, "evaluations.npy")
+    for p in (cfg_path, ev_path):
+        if not os.path.isfile(p):
+            inner = sorted(e for e in os.listdir(path)
+                           if os.path.isfile(os.path.join(path, e, "config.yaml")))
+            hint = (f"; it contains {len(inner)} run folder(s) such as {os.path.join(path, inner[0])}: "
+                    f"pass those instead" if inner else " (not a swim_jax.train run folder?)")
+            raise RunError(f"{path}: missing {os.path.basename(p)}{hint}")
+    return cfg_path, ev_path
+
+
+def _read_config(cfg_path: str) -> dict:
+    """The mapping in ``config.yaml``; :class:`RunError` when unreadable or not a mapping."""
+    try:
+        with open(cfg_path) as f:
+            cfg = yaml.safe_load(f)
+    except (yaml.YAMLError, OSError, UnicodeDecodeError) as e:
+        raise RunError(f"{cfg_path}: unreadable YAML ({_one_line(e)})") from None
+    if not isinstance(cfg, dict):
+        raise RunError(f"{cfg_path}: expected a mapping, got {type(cfg).__name__}")
+    return cfg
+
+
+def _read_returns(ev_path: str, expected: int, seeds: int) -> np.ndarray:
+    """``evaluations.npy`` as float64 ``[n_evals, seeds]`` with ``1 <= n_evals <= expected``, every
+    value finite and real; :class:`RunError` otherwise."""
     try:
         returns = np.load(ev_path, allow_pickle=False)
     except (ValueError, OSError, EOFError) as e:
         raise RunError(f"{ev_path}: unreadable .npy ({_one_line(e)})") from None
-    expected = 1 + total_steps // eval_freq
     if returns.ndim != 2 or returns.shape[1] != seeds or not 1 <= returns.shape[0] <= expected:
         raise RunError(f"{ev_path}: shape {returns.shape} does not match config.yaml "
                        f"(expected [<= {expected} evaluations, {seeds} seeds])")
@@ -183,13 +220,7 @@ def load_run(path: str) -> Run:
                        f"(or integer) returns")
     if not np.all(np.isfinite(returns)):
         raise RunError(f"{ev_path}: non-finite returns (NaN or inf)")
-    return Run(
-        path=path, config=cfg, env=env, activation=activation_label(act) + _point_suffix(path, act),
-        total_steps=total_steps,
-        eval_freq=eval_freq, seed_ids=[(base_seed, first_seed + i) for i in range(seeds)],
-        returns=returns.astype(np.float64),
-        metrics=load_metrics(path, eval_freq, total_steps, [first_seed + i for i in range(seeds)]),
-    )
+    return returns.astype(np.float64)
 
 
 def load_metrics(path: str, eval_freq: int, total_steps: int, seeds: list[int]) -> LearningMetrics | None:
@@ -344,7 +375,7 @@ def _pool(env: str, act: str, runs: list[Run], n: int, eval_freq: int) -> Curves
     returns = np.concatenate([r.returns[:n] for r in runs], axis=1)
     steps = np.arange(n, dtype=np.int64) * eval_freq
     return Curves(env, act, steps, returns, [r.path for r in runs], _pool_metrics(runs, n - 1, eval_freq),
-                  [r.path for r in runs if r.metrics is None])
+                  [r.path for r in runs if r.metrics is None], runs[0].setting, runs[0].sweep_suffix)
 
 
 def _pool_metrics(runs: list[Run], n_chunks: int, eval_freq: int) -> LearningMetrics | None:
@@ -396,12 +427,14 @@ def _dict_diff(a: dict, b: dict) -> list[str]:
 
 
 _MISSING = object()
-_ORDER = {"swim": 0, "swish": 1, "relu": 2}
 
 
 def _act_order(label: str):
-    base = label.split("(")[0].split("+")[0]
-    return (_ORDER.get(base, 3), label)
+    """Sort key of a label: the paper's activations first, in registry order (Swim, Swish, ReLU,
+    each with its variants sorted by label), then every other label alphabetically."""
+    paper = [name for name, spec in ACTIVATIONS.items() if spec.paper]
+    base = label_activation(label)
+    return (paper.index(base) if base in paper else len(paper), label)
 
 
 def _pos_int(v, name: str) -> int:

@@ -13,9 +13,19 @@ from swim_jax.activations import (
     ACTIVATIONS,
     SWIM_VARIANTS,
     Activation,
+    ActivationParam,
+    ActivationSetting,
+    ActivationSpec,
+    _check_registry,
+    display_name,
+    elu,
     get_activation,
     hard_swish,
+    learnable_activations,
+    legend_name,
     mish,
+    param_names,
+    parameter_defaults,
     relu,
     rsqrt_newton,
     swim,
@@ -375,3 +385,122 @@ def test_swim_variant_is_an_explicit_argument_so_programs_never_mix_kernels():
         swim(x, K, "fast")
     with pytest.raises(ValueError, match="unknown activation 'swim\\[fast\\]'"):
         get_activation("swim[fast]")
+
+
+# --------------------------------------------------------------------------- ELU(α)
+
+
+def elu_f64(x, alpha):
+    """ELU in numpy float64: x for x > 0, α(eˣ − 1) otherwise."""
+    x = np.asarray(x, np.float64)
+    return np.where(x > 0, x, alpha * np.expm1(np.minimum(x, 0)))
+
+
+def elu_prime_f64(x, alpha):
+    """f'(x) = 1 for x > 0, α·eˣ otherwise."""
+    x = np.asarray(x, np.float64)
+    return np.where(x > 0, 1.0, alpha * np.exp(np.minimum(x, 0)))
+
+
+def elu_dalpha_f64(x):
+    """∂f/∂α = eˣ − 1 for x ≤ 0, 0 otherwise."""
+    x = np.asarray(x, np.float64)
+    return np.where(x > 0, 0.0, np.expm1(np.minimum(x, 0)))
+
+
+ALPHAS = (0.25, 1.0, 1.7)
+
+
+@pytest.mark.parametrize("alpha", ALPHAS)
+def test_elu_values_against_float64_formula(alpha):
+    x64 = GRID.astype(np.float64)
+    with jax.enable_x64(True):
+        y64 = np.asarray(jax.jit(lambda v: elu(v, alpha))(jnp.asarray(x64)))
+    assert y64.dtype == np.float64
+    np.testing.assert_allclose(y64, elu_f64(x64, alpha), rtol=1e-15, atol=0)
+    y32 = np.asarray(jax.jit(lambda v: elu(v, alpha))(GRID), np.float64)
+    np.testing.assert_allclose(y32, elu_f64(GRID, alpha), rtol=4 * np.finfo(np.float32).eps, atol=0)
+    np.testing.assert_allclose(get_activation("elu", alpha=alpha)(GRID), y32, rtol=0, atol=0)
+
+
+@pytest.mark.parametrize("alpha", ALPHAS)
+def test_elu_derivatives_against_formula_and_finite_differences_f64(alpha):
+    x = np.concatenate([np.linspace(-40, 40, 4000), [-1e-8, 1e-8, 0.0]])  # 4000 points: 0 is not on the grid
+    with jax.enable_x64(True):
+        xj, aj = jnp.asarray(x), jnp.asarray(alpha)
+        d = np.asarray(jax.vmap(jax.grad(lambda v: elu(v, alpha)))(xj))
+        da = np.asarray(jax.vmap(jax.grad(lambda a, v: elu(v, a)), (None, 0))(aj, xj))
+        off_kink = jnp.asarray([-7.0, -2.3, -0.4, 0.3, 1.7, 9.0])  # FD steps never cross x = 0
+        check_grads(lambda v, a: elu(v, a), (off_kink, aj), order=2, modes=("fwd", "rev"), atol=1e-7, rtol=1e-7)
+    # d/dx expm1 is computed as expm1(x) + 1: exact to an absolute eps·α, not relative far left
+    np.testing.assert_allclose(d, elu_prime_f64(x, alpha), rtol=1e-15, atol=np.finfo(np.float64).eps * alpha)
+    np.testing.assert_allclose(da, elu_dalpha_f64(x), rtol=1e-15, atol=0)
+    assert d[-1] == alpha  # at the kink: the left derivative α·e⁰
+
+
+def test_elu_finite_differences_f32():
+    x = jnp.asarray([-5.0, -1.1, 0.2, 2.5], jnp.float32)
+    check_grads(lambda x, a: elu(x, a), (x, jnp.float32(0.6)), order=1, modes=("fwd", "rev"), atol=2e-2, rtol=2e-2)
+
+
+@pytest.mark.parametrize("dtype", ["float16", "bfloat16", "float32", "float64"])
+def test_elu_limits_no_overflow_no_nan(dtype):
+    with jax.enable_x64(dtype == "float64"):
+        big = float(jnp.finfo(dtype).max)
+        x = jnp.asarray([big, -big, jnp.inf, -jnp.inf, jnp.nan, 0.0], dtype)
+        y = elu(x, 0.5)
+        d = jax.vmap(jax.grad(lambda v: elu(v, 0.5)))(x)
+        assert y.dtype == x.dtype and d.dtype == x.dtype
+        y, d = np.asarray(y, np.float64), np.asarray(d, np.float64)
+    assert y[0] == big and y[1] == -0.5 and y[2] == np.inf and y[3] == -0.5
+    assert np.isnan(y[4]) and y[5] == 0.0
+    assert d[0] == 1.0 and d[1] == 0.0 and d[2] == 1.0 and d[3] == 0.0  # no inf·0 from the unselected branch
+    assert np.isnan(d[4]) and d[5] == 0.5  # at the kink x = 0: the left derivative α·e⁰
+
+
+def test_elu_vmap_over_alpha_and_learnable_per_layer():
+    x = jnp.linspace(-3, 3, 7)
+    alphas = jnp.asarray([0.25, 1.0, 2.0])
+    ys = jax.jit(jax.vmap(elu, (None, 0)))(x, alphas)
+    for i, a in enumerate([0.25, 1.0, 2.0]):
+        np.testing.assert_allclose(ys[i], elu_f64(np.asarray(x), a), rtol=1e-6)
+    layer = Activation(kind="elu", params={"alpha": 0.5}, learnable=True)
+    params = layer.init(jax.random.key(0), x)
+    assert float(params["params"]["alpha"]) == 0.5
+    g = jax.grad(lambda p: layer.apply(p, x).sum())(params)
+    assert float(g["params"]["alpha"]) == pytest.approx(elu_dalpha_f64(np.asarray(x)).sum(), rel=1e-6)
+    with pytest.raises(ValueError, match="must be finite and > 0"):
+        get_activation("elu", alpha=0.0)
+    with pytest.raises(ValueError, match="unknown parameter.*k.*valid: alpha"):
+        get_activation("elu", k=1.0)
+
+
+# --------------------------------------------------------------------------- what derives from the registry
+
+
+def test_registry_derives_parameters_labels_and_legends():
+    assert parameter_defaults() == {"k": 0.5, "beta": 1.0, "alpha": 1.0}
+    assert learnable_activations() == ("swim", "swish", "elu")
+    assert param_names("elu") == ("alpha",) and param_names("swim[rsqrt]") == ("k",) and param_names("nope") == ()
+    label = lambda act: ActivationSetting.from_config(act).label
+    assert label({"name": "swim", "k": 0.25, "beta": 2.0, "alpha": 3.0}) == "swim(k=0.25)"  # others' params ignored
+    assert label({"name": "swish", "beta": 1.0, "learnable": True}) == "swish+learnable"
+    assert label({"name": "elu", "alpha": 0.5}) == "elu(alpha=0.5)"
+    assert label({"name": "elu", "k": 0.75}) == "elu"  # a config.yaml without alpha: the default
+    assert label({"name": "relu", "k": 0.75}) == "relu"
+    assert ActivationSetting.from_config({"name": "elu"}).params == (("alpha", 1.0),)
+    assert [display_name(lab) for lab in ("swim", "swim(k=0.75)+learnable", "elu(alpha=0.5)", "mish", "swim[tau=0.01]")] \
+        == ["Swim", "Swim(k=0.75)+learnable", "ELU(alpha=0.5)", "mish", "swim[tau=0.01]"]
+    assert [legend_name(n) for n in ("swim", "swish", "relu", "elu")] == ["Swim (k=0.5)", "Swish (β=1)", "ReLU", "ELU (α=1)"]
+    assert ActivationParam("t", 0.5, 0.0, 1.0).problem(1.0) == "it must be finite and in (0, 1)"
+
+
+def test_registry_refuses_one_parameter_name_with_two_defaults():
+    ok = {"a": ActivationSpec(elu, (ActivationParam("alpha", 1.0),))}
+    _check_registry(ok)
+    with pytest.raises(ValueError, match="one config field, one default"):
+        _check_registry({**ok, "b": ActivationSpec(elu, (ActivationParam("alpha", 0.01),))})
+    with pytest.raises(ValueError, match="reserved"):
+        _check_registry({"c": ActivationSpec(elu, (ActivationParam("learnable", 1.0),))})
+    with pytest.raises(ValueError, match="is invalid"):
+        _check_registry({"d": ActivationSpec(elu, (ActivationParam("alpha", -1.0),))})

@@ -23,20 +23,23 @@ LOW, HIGH = (-2.0, -1.0, -0.5), (2.0, 1.0, 0.5)  # deliberately non-symmetric pe
 # independent reference (float64)
 # ------------------------------------------------------------------------------------------------
 
-def ref_act(name, x, k=0.5, beta=1.0):
+def ref_act(name, x, param):
+    """The activation by its formula; ``param`` is its own parameter (k, beta or alpha)."""
     if name == "relu":
         return jnp.maximum(x, 0.0)
     if name == "swim":
-        return x / 2 * (k * x / jnp.sqrt(1 + k * k * x * x) + 1)
+        return x / 2 * (param * x / jnp.sqrt(1 + param * param * x * x) + 1)
     if name == "swish":
-        return x / (1 + jnp.exp(-beta * x))
+        return x / (1 + jnp.exp(-param * x))
+    if name == "elu":
+        return jnp.where(x > 0, x, param * (jnp.exp(jnp.minimum(x, 0.0)) - 1))
     raise AssertionError(name)
 
 
 def ref_body(p, x, name, n_hidden, k):
     """p: dict with dense_i/head kernels, x @ W + b, activation after every hidden layer."""
     for i in range(n_hidden):
-        x = ref_act(name, x @ p[f"dense_{i}"]["kernel"] + p[f"dense_{i}"]["bias"], k=k)
+        x = ref_act(name, x @ p[f"dense_{i}"]["kernel"] + p[f"dense_{i}"]["bias"], k)
     return x @ p["head"]["kernel"] + p["head"]["bias"]
 
 
@@ -64,11 +67,11 @@ def np64(tree):
     return jax.tree.map(lambda x: np.asarray(x, np.float64), tree)
 
 
-@pytest.mark.parametrize("act_name", ["relu", "swim"])
+@pytest.mark.parametrize("act_name", ["relu", "swim", "elu"])
 def test_td3_two_updates_match_float64_reference(act_name):
     """Update 1 (critic only) then update 2 (critic + delayed actor + Polyak) vs the reference."""
     with jax.enable_x64(True):
-        cfg = TD3Config(hidden=(8, 8), activation=ActivationConfig(name=act_name, k=0.75),
+        cfg = TD3Config(hidden=(8, 8), activation=ActivationConfig(name=act_name, k=0.75, alpha=0.75),
                         actor_lr=1e-2, critic_lr=2e-2, batch_size=B, tau=0.05, discount=0.9)
         agent = TD3(cfg, OBS, LOW, HIGH, dtype=jnp.float64)
         state = agent.init(jax.random.PRNGKey(3))

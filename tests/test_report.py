@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 import yaml
 
-from swim_jax import report
+from swim_jax import report, runs_io
+from swim_jax.report_figure import parameter_series
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -20,14 +21,17 @@ SWISH = np.array([[0.0, 0.0], [20.0, 30.0], [30.0, 40.0]])  # mean 0, 25, 35
 
 
 def write_run(root, name, env="Walker2d-v5", act="swim", returns=SWIM, total_steps=200, eval_freq=100,
-              first_seed=0, seed=0, k=0.5, beta=1.0, hidden=(8, 8), precision="float32", **extra):
-    """A minimal run folder in the format of swim_jax.train (config.yaml + evaluations.npy)."""
+              first_seed=0, seed=0, k=0.5, beta=1.0, hidden=(8, 8), precision="float32", activation=None, **extra):
+    """A minimal run folder in the format of swim_jax.train (config.yaml + evaluations.npy); the
+    activation section has k and beta only (as before alpha existed) unless ``activation`` gives
+    extra keys."""
     d = os.path.join(str(root), name)
     os.makedirs(d)
     returns = np.asarray(returns, dtype=np.float64)
     cfg = {
         "env": {"id": env, "max_episode_steps": 1000},
-        "agent": {"hidden": list(hidden), "activation": {"name": act, "k": k, "beta": beta, "learnable": False},
+        "agent": {"hidden": list(hidden),
+                  "activation": {"name": act, "k": k, "beta": beta, "learnable": False, **(activation or {})},
                   "batch_size": 64},
         "seeds": returns.shape[1], "first_seed": first_seed, "seed": seed, "total_steps": total_steps,
         "eval_freq": eval_freq, "eval_episodes": 5, "precision": precision, "out_dir": str(root), "name": name,
@@ -688,3 +692,29 @@ def test_learning_metrics_of_incomplete_runs_cover_the_common_evaluations(tmp_pa
     assert lm["relu"]["actor_loss"]["max"] == [2.0] and lm["relu"]["q_mean"]["min"] == [3.0]
     assert lm["swish"]["steps"] == [100]
     assert lm["swish"]["critic_loss"] == {"mean": [None], "min": [None], "max": [None]}  # no row for 100
+
+
+def test_elu_labels_old_and_new_run_folders_and_alpha_series(tmp_path, capsys):
+    """ELU(α) reaches the report from the registry alone: labels elu / elu(alpha=0.5) /
+    elu+learnable, display name ELU, a return-vs-alpha series; a run folder written before alpha
+    existed (no alpha key) pools with a new one at the default alpha."""
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    paths = [write_run(runs, "swim", act="swim"),
+             write_run(runs, "elu_old", act="elu", returns=SWISH),  # no alpha key: alpha = 1
+             write_run(runs, "elu_new", act="elu", returns=SWISH + 1, first_seed=2, activation={"alpha": 1.0}),
+             write_run(runs, "elu_a", act="elu", returns=SWISH + 2, activation={"alpha": 0.5}),
+             write_run(runs, "elu_l", act="elu", returns=SWISH + 3, activation={"alpha": 1.0, "learnable": True})]
+    groups = runs_io.load_and_group(paths)
+    curves = groups["Walker2d-v5"].curves
+    assert list(curves) == ["swim", "elu", "elu(alpha=0.5)", "elu+learnable"]
+    assert curves["elu"].n_seeds == 4 and curves["elu"].setting.params == (("alpha", 1.0),)
+    series = parameter_series(groups)
+    assert list(series) == [("Walker2d-v5", "elu", "alpha")]
+    assert [v for v, _, _ in series[("Walker2d-v5", "elu", "alpha")]] == [0.5, 1.0]
+    out = tmp_path / "out"
+    rc, _, err = run_report(paths + ["--out", out, "--n-boot", "200"], capsys)
+    assert rc == 0, err
+    md = (out / "REPORT.md").read_text()
+    assert "| ELU(alpha=0.5) |" in md and "| ELU+learnable |" in md and "| Walker2d-v5 | ELU | 0.5 |" in md
+    assert (out / "sweep.svg").is_file()

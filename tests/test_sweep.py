@@ -50,11 +50,36 @@ def test_sweep_grid_points_and_point_configs():
     assert cfgmod.sweep_points(cfgmod.resolve("hopper_swim", [])) == [{}]
 
 
+def test_elu_alpha_is_a_config_key_a_sweep_axis_a_learnable_parameter_and_a_label():
+    """ELU(α), one registry entry: agent.activation.alpha sets, sweeps, learns and labels it."""
+    cfg = cfgmod.resolve("hopper_swim", ["agent.activation.name=elu", "agent.activation.alpha=0.5"])
+    assert cfg.agent.activation.params() == {"alpha": 0.5}
+    assert "agent.activation.alpha" in cfgmod.sweepable_keys(cfg) and "agent.activation.k" not in cfgmod.sweepable_keys(cfg)
+    dumped = __import__("yaml").safe_load(cfgmod.dump(cfg))
+    assert cfgmod.from_dict(cfgmod.Config, dumped) == cfg
+    assert runs_io.activation_label(dumped["agent"]["activation"]) == "elu(alpha=0.5)"
+    with pytest.raises(cfgmod.ConfigError, match="alpha=-1.0 is invalid; it must be finite and > 0"):
+        cfgmod.resolve("hopper_swim", ["agent.activation.name=elu", "agent.activation.alpha=-1"])
+    sw = cfgmod.resolve("hopper_swim", ["agent.activation.name=elu", "agent.activation.learnable=true",
+                                        "sweep.agent.activation.alpha=[0.5,2]"])
+    pts = cfgmod.sweep_points(sw)
+    assert [cfgmod.point_label(p) for p in pts] == ["alpha=0.5", "alpha=2"]
+    assert cfgmod.point_config(sw, pts[1]).agent.activation.params() == {"alpha": 2.0}
+    agent = TD3(sw.agent, 3, (-1.0,), (1.0,)).with_hparams({"activation.alpha": jnp.asarray(2.0)})
+    assert dict(agent.network_options.activation_params) == {"alpha": 2.0} and agent.network_options.learnable
+    st = TD3(dataclasses.replace(sw.agent, hidden=(4,)), 3, (-1.0,), (1.0,)).init(jax.random.PRNGKey(0))
+    lanes = jax.tree.map(lambda x: x[None], (st.actor, st.critic))  # one lane
+    assert sorted(learned_params.activation_params(*lanes)) == ["actor/act_0/alpha", "critic_1/act_0/alpha",
+                                                                "critic_2/act_0/alpha"]
+
+
 @pytest.mark.parametrize("argv, needle", [
     (["config=hopper_swim"], "no sweep axis given; add e.g. sweep.agent.activation.k="),
     (["config=hopper_swim", "sweep.agent.batch_size=[64,128]"], "valid sweep keys: agent.actor_lr"),
     (["config=hopper_relu", "sweep.agent.activation.k=[1,2]"], "cannot be swept (activation relu)"),
     (["config=hopper_swish", "sweep.agent.activation.k=[1,2]"], "agent.activation.beta"),
+    (["config=hopper_swim", "agent.activation.name=elu", "sweep.agent.activation.k=[1,2]"], "agent.activation.alpha"),
+    (["config=hopper_swim", "agent.activation.name=elu", "sweep.agent.activation.alpha=[0.5,0]"], "sweep point alpha=0"),
     (["config=hopper_swim", "sweep.agent.activation.k=[0.5,-1]"], "sweep point k=-1"),
     (["config=hopper_swim", "sweep.agent.tau=0.01"], "expected a non-empty list of numbers"),
     (["config=hopper_swim", "sweep.agent.tau=[0.01,0.01]"], "values must be distinct"),

@@ -360,7 +360,7 @@ def test_nan_detection_names_seed_step_and_quantity(vmapped):
         (["config=walker_swim", "agent.foo=1"], "valid keys under agent:"),
         (["config=walker_swim", "seeds=two"], "seeds: expected int"),
         (["config=walker_swim", "env.id=Pong-v5"], "valid: Hopper-v5"),
-        (["config=walker_swim", "agent.activation.name=gelu"], "valid: hard_swish, mish, relu, swim, swish"),
+        (["config=walker_swim", "agent.activation.name=gelu"], "valid: elu, hard_swish, mish, relu, swim, swish"),
         (["config=walker_swim", "precision=float16"], "valid: float32, float64"),
         (["config=walker_swim", "matmul_precision=tf32"], "valid: highest, high, default"),
         (["config=walker_swim", "matmul_dtype=float16"], "valid: auto, bfloat16"),
