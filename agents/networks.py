@@ -6,7 +6,7 @@ Critics: Q_j(s, a) = W₃ʲ σ(W₂ʲ σ(W₁ʲ [s; a] + b₁ʲ) + b₂ʲ) + b�
          vmapped over a leading critic axis of its parameters; output shape (2, batch).
 
 σ is ``swim_jax.activations.Activation(kind, params, learnable)`` in every hidden layer (a fresh
-layer each time, so a learnable k/beta is per layer). Dense layers use PyTorch's ``nn.Linear``
+layer each time, so a learnable k/beta/alpha is per layer). Dense layers use PyTorch's ``nn.Linear``
 default initialisation (weights and biases U(±1/√fan_in)), as in the original TD3 code.
 
 ``matmul_dtype`` (opt-in, e.g. ``jnp.bfloat16``): every Dense layer rounds its input, kernel and bias

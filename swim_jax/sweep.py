@@ -7,9 +7,9 @@
 
 Every ``sweep.<key>=[v1,v2,...]`` is an axis; the grid is their cartesian product. Sweepable keys
 are the float hyperparameters of the agent (learning rates, discount, tau, the noise scales and the
-activation's own parameter: ``agent.activation.k`` for swim, ``agent.activation.beta`` for swish);
-they enter the compiled program as per-lane inputs (``TD3.with_hparams``), so points × seeds lanes
-train together and each point sees the same seeds. Everything else is ``swim_jax.train``: the same
+activation's own parameter: ``agent.activation.k`` for swim, ``agent.activation.beta`` for swish,
+``agent.activation.alpha`` for elu); they enter the compiled program as per-lane inputs
+(``TD3.with_hparams``), so points × seeds lanes train together and each point sees the same seeds. Everything else is ``swim_jax.train``: the same
 options, checkpoints, ``--resume`` and exit statuses. Outputs: ``sweep.csv`` (one row per point)
 and ``points/<label>/`` per point, each readable by ``swim_jax.report`` and ``swim_jax.render``::
 
