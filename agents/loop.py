@@ -233,22 +233,15 @@ def episode_returns(env, reset_keys: Array, policy, max_steps: int) -> Array:
 
 
 def make_eval_fn(agent: TD3, env, episodes: int, max_steps: int):
-    """``evaluate(actor_params[S], eval_keys[S], eval_index, random_policy, hparams) -> returns[S, episodes]``.
-
+    """``evaluate(actor_params[S], eval_keys[S], eval_index, hparams) -> returns[S, episodes]``:
     :func:`episode_returns` of the episodes from :func:`eval_reset_keys` with actions μ_s(obs).
     ``hparams``: per-lane sweep values ``{path: [S]}`` (the actor of a swept k uses its lane's k),
-    empty/None for none. ``random_policy`` (traced bool, false in training) switches to U(low, high)
-    actions; it has no caller besides swim_jax/train.py passing false, and goes with that argument."""
+    empty/None for none."""
 
-    def evaluate(actor_params, eval_keys: Array, eval_index: Array, random_policy=False, hparams=None) -> Array:
-        keys = eval_reset_keys(eval_keys, eval_index, episodes)
-        act_keys = jax.vmap(jax.vmap(lambda k: jax.random.fold_in(k, 1)))(keys)
-
+    def evaluate(actor_params, eval_keys: Array, eval_index: Array, hparams=None) -> Array:
         def policy(obs: Array, t: Array) -> Array:
-            a = jax.vmap(lambda p, o, h: agent.with_hparams(h).act(p, o))(actor_params, obs, hparams)
-            rand = jax.vmap(jax.vmap(lambda k: agent.random_action(jax.random.fold_in(k, t))))(act_keys)
-            return jnp.where(random_policy, rand, a)
+            return jax.vmap(lambda p, o, h: agent.with_hparams(h).act(p, o))(actor_params, obs, hparams)
 
-        return episode_returns(env, keys, policy, max_steps)
+        return episode_returns(env, eval_reset_keys(eval_keys, eval_index, episodes), policy, max_steps)
 
     return evaluate

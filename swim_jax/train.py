@@ -117,7 +117,7 @@ class Programs:
     agent: object
     init_fn: object  # (base_seed uint32, seed_ids int32[L][, hparams {path: [L]}]) -> TrainState[L]
     chunk_fn: object  # (TrainState[L], t0 int32[, hparams]) -> TrainState[L] after steps_per_call(cfg) steps; donated
-    eval_fn: object  # (actor[L], eval_keys[L], eval_index int32, random bool[, hparams]) -> returns[L, E]
+    eval_fn: object  # (actor[L], eval_keys[L], eval_index int32[, hparams]) -> returns[L, E]
 
 
 _PROGRAMS: dict = {}
@@ -337,8 +337,7 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
     def evaluate(states, j):
         nonlocal eval_time
         t0 = time.time()
-        r = np.asarray(eval_fn(states.agent.actor, states.eval_key, jnp.asarray(j, jnp.int32),
-                               jnp.asarray(False), *sweep_args))
+        r = np.asarray(eval_fn(states.agent.actor, states.eval_key, jnp.asarray(j, jnp.int32), *sweep_args))
         eval_time += time.time() - t0
         evals[j] = r
         if tb is not None:
