@@ -298,7 +298,7 @@ def verdict(c: Comparison, x_name: str = "Swim", y_name: str = "Swish") -> str:
     lo, hi = c.diff_ci
     p = c.welch.p_two_sided if c.welch is not None else float("nan")
     observed = (f"{x_name}'s mean per-seed {c.score} score {relation} "
-                f"(95% bootstrap CI of the difference [{_fmt_num(lo)}, {_fmt_num(hi)}], Welch p = {_fmt_p(p)}, "
+                f"(95% bootstrap CI of the difference [{_fmt_num(lo)}, {_fmt_num(hi)}], Welch p = {fmt_p(p)}, "
                 f"P({x_name} > {y_name}) = {c.prob_improvement:.2f})")
     reasons = []
     if min(c.n_x, c.n_y) < MIN_SEEDS:
@@ -317,7 +317,8 @@ def _fmt_num(v: float) -> str:
     return f"{v:.1f}" if abs(v) >= 10 else f"{v:.3g}"
 
 
-def _fmt_p(p: float) -> str:
+def fmt_p(p: float) -> str:
+    """A p-value as the report prints it: 3 significant digits, scientific below 1e-4, 'n/a' if undefined."""
     if not math.isfinite(p):
         return "n/a"
     return f"{p:.3g}" if p >= 1e-4 else f"{p:.1e}"
