@@ -1,11 +1,17 @@
 """Contract tests for envs.make / ENV_IDS / step_autoreset / time limit (real MJX physics)."""
 
+import os
+import subprocess
+import sys
+
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
 import envs
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def test_registry_ids():
@@ -138,3 +144,15 @@ def test_step_autoreset_lanes_equals_step_autoreset_lane_by_lane():
     dones = np.array(dones)
     assert dones[0, 2] == 1 and dones[0, :2].sum() == 0  # steps with and without resets were taken
     assert (dones.sum(axis=1) == 0).any() and dones[2].sum() >= 2
+
+
+def test_making_an_env_prints_nothing_and_writes_no_mujoco_log(tmp_path):
+    """Gymnasium's half_cheetah.xml draws MuJoCo's settotalmass deprecation notice on every load
+    (printed, and appended to ./MUJOCO_LOG.TXT): building the env shows neither."""
+    code = "import envs; envs.make('HalfCheetah-v5', backend='mujoco'); print('made')"
+    env = {**os.environ, "PYTHONPATH": REPO}
+    out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env, capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout == "made\n"
+    assert "settotalmass" not in out.stderr
+    assert not (tmp_path / "MUJOCO_LOG.TXT").exists()
