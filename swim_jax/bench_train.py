@@ -1,7 +1,7 @@
 """Whole-program training throughput vs number of lanes: ``python -m swim_jax.bench train``.
 
 For each lane count L (seeds of one vmapped program) it builds the real training program of a
-config (``swim_jax.train.programs``: env step + replay insert + one TD3 update per step, every step
+config (``swim_jax.programs.programs``: env step + replay insert + one TD3 update per step, every step
 in the learning phase: ``learning_starts=0``), compiles it (the first chunk, timed as compile +
 run), then times ``--repeats`` chunks of ``--chunk-steps`` steps per L, interleaved across L in one
 process so machine noise hits every L alike. Reported per L (medians, min–max):
@@ -138,7 +138,7 @@ def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overr
     import jax.numpy as jnp
 
     from swim_jax import config as cfgmod
-    from swim_jax import train
+    from swim_jax import programs, train
     from swim_jax.sharding import place
 
     bench = [f"eval_freq={chunk_steps}", f"total_steps={chunk_steps}", "learning_starts=0",
@@ -153,7 +153,7 @@ def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overr
     for c in candidates:
         L, sh, v = c
         cfgs[c] = dataclasses.replace(variant_cfgs[v], seeds=L, pad_single_seed=False)
-        progs[c] = prog = train.programs(cfgs[c])
+        progs[c] = prog = programs.programs(cfgs[c])
         st = place(prog.init_fn(jnp.asarray(0, jnp.uint32), jnp.arange(L, dtype=jnp.int32)), sh)
         t0 = time.perf_counter()
         states[c] = run_chunk(c, st, 0)

@@ -4,7 +4,7 @@
     python -m swim_jax.render RUN_DIR --seed 2 --out walker.mp4 --width 480 --height 360 --fps 30
 
 Loads the run's ``config.yaml`` and ``final_policy.npz`` (actor parameters, leading axis = seed
-position), rebuilds the env and actor exactly as ``swim_jax.train`` did (``swim_jax.train.build``),
+position), rebuilds the env and actor exactly as ``swim_jax.train`` did (``swim_jax.programs.build``),
 runs one episode with the deterministic policy (no exploration noise, like the evaluations) on the
 MJX env, prints its return, then draws the visited states offscreen with ``mujoco.Renderer`` and
 writes a GIF (Pillow) or an MP4 (needs an ``ffmpeg`` executable or the ``imageio-ffmpeg`` package).
@@ -102,7 +102,7 @@ def load_policy(run_dir: str, seed: int):
     """
     # imported only now, after main's choose_gl_backend: they import mujoco, which reads MUJOCO_GL once
     from swim_jax import config as cfgmod
-    from swim_jax.train import build
+    from swim_jax.programs import build
 
     if os.path.isdir(os.path.join(run_dir, "points")) and os.path.isfile(os.path.join(run_dir, "sweep.csv")):
         points = sorted(os.listdir(os.path.join(run_dir, "points")))

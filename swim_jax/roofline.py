@@ -32,7 +32,7 @@ from jax.extend.core import jaxprs_in_params
 
 from agents.replay import Transition
 from swim_jax import config as cfgmod
-from swim_jax.train import build
+from swim_jax.programs import build
 
 
 @dataclass(frozen=True)

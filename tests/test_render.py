@@ -136,7 +136,7 @@ def test_end_to_end_episode_of_an_initialised_policy(tmp_path):
     import jax
 
     from swim_jax import config as cfgmod
-    from swim_jax.train import build
+    from swim_jax.programs import build
 
     cfg = cfgmod.resolve(None, ["env.id=Hopper-v5", "agent.hidden=[8,8]", "agent.activation.name=swim",
                                 "seeds=1", "total_steps=2000", "eval_freq=1000", "learning_starts=100",

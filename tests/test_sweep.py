@@ -20,7 +20,7 @@ import pytest
 from agents.replay import Transition
 from agents.td3 import TD3, ActivationConfig, TD3Config
 from swim_jax import config as cfgmod
-from swim_jax import learned_params, report, runs_io, sweep, train
+from swim_jax import learned_params, outputs, programs, report, runs_io, sweep, train
 from swim_jax.render import RenderError, load_policy
 
 TINY = ["seeds=2", "total_steps=3000", "eval_freq=1000", "learning_starts=1000", "eval_episodes=3",
@@ -40,11 +40,11 @@ def test_sweep_grid_points_and_point_configs():
     assert cfgmod.point_label(pts[1]) == "k=0.25,tau=0.01"
     pc = cfgmod.point_config(cfg, pts[1])
     assert pc.agent.activation.k == 0.25 and pc.agent.tau == 0.01 and pc.sweep == {}
-    seed_ids, hp = train.lane_inputs(dataclasses.replace(cfg, seeds=2), np.float32)
+    seed_ids, hp = programs.lane_inputs(dataclasses.replace(cfg, seeds=2), np.float32)
     np.testing.assert_array_equal(seed_ids, [0, 1] * 6)
     np.testing.assert_allclose(hp["activation.k"], np.repeat([0.25, 0.25, 0.5, 0.5, 1, 1], 2))
     np.testing.assert_allclose(hp["tau"], np.repeat([0.005, 0.01] * 3, 2), rtol=1e-7)
-    assert train.num_lanes(dataclasses.replace(cfg, seeds=2)) == 12
+    assert programs.num_lanes(dataclasses.replace(cfg, seeds=2)) == 12
     # the sweep round-trips through config.yaml
     assert cfgmod.from_dict(cfgmod.Config, __import__("yaml").safe_load(cfgmod.dump(cfg))) == cfg
     assert cfgmod.sweep_points(cfgmod.resolve("hopper_swim", [])) == [{}]
@@ -237,7 +237,7 @@ def test_write_sweep_table_quotes_labels_with_commas(tmp_path):
     points = cfgmod.sweep_points(cfg)
     rng = np.random.default_rng(0)
     evals = rng.normal(size=(3, 8, 2))  # [evaluations, points × seeds, episodes]
-    train.write_sweep_table(str(tmp_path), cfg, points, evals)
+    outputs.write_sweep_table(str(tmp_path), cfg, points, evals)
     with open(tmp_path / "sweep.csv", newline="") as f:
         rows = list(csv.DictReader(f))
     assert [r["point"] for r in rows] == MULTI_LABELS
@@ -252,7 +252,7 @@ def test_write_sweep_table_quotes_labels_with_commas(tmp_path):
         assert int(r["best_step"]) == 100 * curve.index(max(curve))
     # labels without commas are written as before (no quotes): old readers keep working
     one = cfgmod.resolve("hopper_swim", ["seeds=2", "sweep.agent.activation.k=[0.5,1]"])
-    train.write_sweep_table(str(tmp_path), one, cfgmod.sweep_points(one), evals[:, :4])
+    outputs.write_sweep_table(str(tmp_path), one, cfgmod.sweep_points(one), evals[:, :4])
     lines = (tmp_path / "sweep.csv").read_text().splitlines()
     assert lines[0] == "point,agent.activation.k,final_mean,final_std,best_mean,best_step"
     assert lines[1].startswith("k=0.5,0.5,") and '"' not in "".join(lines)

@@ -27,6 +27,7 @@ from agents.loop import CHECKED
 from agents import loop
 from swim_jax import config as cfgmod
 from swim_jax import learning_log, report, tensorboard_log, train
+from swim_jax.programs import programs
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TINY = [
@@ -276,7 +277,7 @@ def test_chunk_metrics_are_count_weighted_means():
 def uniform_random_returns(cfg, eval_keys, eval_index):
     """Returns ``[seeds, eval_episodes]`` of U(low, high) actions from the episodes the run's
     evaluation ``eval_index`` starts (the same reset keys), built from agents/loop.py's pieces."""
-    prog = train.programs(cfg)
+    prog = programs(cfg)
 
     def run(eval_keys, eval_index):
         keys = loop.eval_reset_keys(eval_keys, eval_index, cfg.eval_episodes)
@@ -465,12 +466,12 @@ def test_resume_after_sigkill_matches_uninterrupted_run(tmp_path):
 def test_programs_are_rebuilt_for_each_matmul_setting():
     """The program cache keys on every field that changes the program: a bfloat16-matmul config
     must not get the cached float32 program (building only, no compile)."""
-    plain = train.programs(tiny("seeds=2"))
-    bf16 = train.programs(tiny("seeds=2", "matmul_dtype=bfloat16"))
+    plain = programs(tiny("seeds=2"))
+    bf16 = programs(tiny("seeds=2", "matmul_dtype=bfloat16"))
     assert bf16 is not plain and plain.agent.matmul_dtype is None
     assert jnp.dtype(bf16.agent.matmul_dtype) == jnp.bfloat16
-    assert train.programs(tiny("seeds=2", "matmul_precision=default")) is not plain
-    assert train.programs(tiny("seeds=5")) is plain  # seeds only change the lane shapes
+    assert programs(tiny("seeds=2", "matmul_precision=default")) is not plain
+    assert programs(tiny("seeds=5")) is plain  # seeds only change the lane shapes
 
 
 def test_float64_precision_builds_everything_in_float64():
@@ -479,7 +480,7 @@ def test_float64_precision_builds_everything_in_float64():
     prev = bool(jax.config.jax_enable_x64)
     try:
         cfg = tiny("precision=float64", "seeds=2", "replay_size=100")
-        prog = train.programs(cfg)
+        prog = programs(cfg)
         assert jax.config.jax_enable_x64
         st = prog.init_fn(jnp.asarray(0, jnp.uint32), jnp.arange(2, dtype=jnp.int32))
         floats = [x for x in jax.tree.leaves(st) if jnp.issubdtype(x.dtype, jnp.floating)]
@@ -505,7 +506,7 @@ def test_divergence_stops_with_message_and_keeps_last_good_checkpoint(tmp_path):
     assert sorted(os.listdir(os.path.join(run_dir, "checkpoints"))) == ["1000"]
     assert not os.path.exists(os.path.join(run_dir, "final_policy.npz"))
     cfg = train.parse_args(["--resume", run_dir])[0]
-    prog = train.programs(cfg)
+    prog = programs(cfg)
     from swim_jax.checkpoint import Checkpointer
 
     ck = Checkpointer(os.path.join(run_dir, "checkpoints"))
@@ -519,7 +520,7 @@ def test_divergence_stops_with_message_and_keeps_last_good_checkpoint(tmp_path):
 def test_ynn_fusions_are_off_in_the_cpu_training_chunk_unless_asked_for():
     """The chunk's compiler options reach XLA: YNNPACK fusions only with xla_cpu_ynn_fusions=true."""
     def compiled_text(cfg):
-        prog = train.programs(cfg)
+        prog = programs(cfg)
         states = prog.init_fn(jnp.asarray(0, jnp.uint32), jnp.arange(1, dtype=jnp.int32))
         return prog.chunk_fn.lower(states, jnp.asarray(0, jnp.int32), None).compile().as_text()
 

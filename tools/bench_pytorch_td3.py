@@ -141,7 +141,7 @@ def main(argv=None) -> int:
     import jax.numpy as jnp
 
     from swim_jax import config as cfgmod
-    from swim_jax import train
+    from swim_jax.programs import programs
 
     torch_step = pytorch_td3(args.env)
     for _ in range(1000):  # random warm-up fills the buffer (the original uses 25k; speed is the same)
@@ -149,7 +149,7 @@ def main(argv=None) -> int:
     cfg = cfgmod.resolve(CONFIGS[args.env], [f"seeds={args.lanes}", f"eval_freq={args.steps}",
                                              f"total_steps={args.steps}", "learning_starts=0",
                                              "replay_size=100000", "pad_single_seed=false"])
-    prog = train.programs(cfg)
+    prog = programs(cfg)
     st = prog.init_fn(jnp.asarray(0, jnp.uint32), jnp.arange(args.lanes, dtype=jnp.int32))
     st = jax.block_until_ready(prog.chunk_fn(st, jnp.asarray(0, jnp.int32))[0])  # compile
     for _ in range(50):

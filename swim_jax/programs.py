@@ -1,0 +1,174 @@
+"""The training program of a config: env, agent and the jitted functions, built once per process.
+
+``programs(cfg)`` builds (or reuses) the env, eval env, TD3 agent and the three jitted functions of
+agents/loop.py for ``cfg``; ``lanes(cfg, prog)`` gives their per-lane inputs (seed ids, sweep values,
+device placement). ``swim_jax.train`` runs them; ``swim_jax.render``/``roofline`` use :func:`build`
+and ``swim_jax.bench_train`` times :func:`programs`' chunk.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from typing import Callable
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax._src import xla_bridge
+
+import envs
+from agents import loop
+from agents.td3 import TD3
+from swim_jax import config as cfgmod
+from swim_jax.config import Config
+from swim_jax.sharding import lane_sharding, place
+
+
+def _setup_precision(cfg: Config) -> None:
+    jax.config.update("jax_enable_x64", cfg.precision == "float64")
+
+
+def build(cfg: Config):
+    """(env, eval env, agent) for a validated config, in the configured precision."""
+    _setup_precision(cfg)
+    env = envs.make(cfg.env.id, max_episode_steps=cfg.env.max_episode_steps, backend=cfg.env.backend)
+    eval_env = envs.make(cfg.env.id, max_episode_steps=cfg.env.max_episode_steps, backend=cfg.env.backend)
+    dtype = jnp.float64 if cfg.precision == "float64" else jnp.float32
+    agent = TD3(
+        cfg.agent,
+        env.observation_size,
+        tuple(float(x) for x in np.asarray(env.action_low)),
+        tuple(float(x) for x in np.asarray(env.action_high)),
+        dtype=dtype,
+        matmul_dtype=jnp.bfloat16 if cfg.matmul_dtype == "bfloat16" else None,
+    )
+    return env, eval_env, agent
+
+
+@dataclass
+class Programs:
+    """The jitted functions of one training program (see agents/loop.py)."""
+
+    env: object
+    eval_env: object
+    agent: object
+    init_fn: object  # (base_seed uint32, seed_ids int32[L][, hparams {path: [L]}]) -> TrainState[L]
+    chunk_fn: object  # (TrainState[L], t0 int32[, hparams]) -> TrainState[L] after steps_per_call(cfg) steps; donated
+    eval_fn: object  # (actor[L], eval_keys[L], eval_index int32[, hparams]) -> returns[L, E]
+
+
+_PROGRAMS: dict = {}
+
+
+def num_lanes(cfg: Config) -> int:
+    """Width of the vmapped lane axis: sweep points × ``seeds``, or 2 for a padded single-lane run.
+
+    Why pad: with a unit vmap axis XLA CPU simplifies the batched MJX physics differently, which
+    changes float rounding (~1e-5 after ~10 steps), so seed i alone would drift from seed i in a
+    multi-seed run. Lanes ≥ 2 compute each seed bit-identically (tests/test_train.py)."""
+    real = len(cfgmod.sweep_points(cfg)) * cfg.seeds
+    return 2 if real == 1 and cfg.pad_single_seed else real
+
+
+def lane_inputs(cfg: Config, dtype) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """(seed index per lane int32[L], sweep values per lane ``{agent path: [L]}``).
+
+    Lane ``p·seeds + s`` is seed ``first_seed + s`` of sweep point ``p`` (every point sees the
+    same seeds); a padded lane repeats lane 0. Paths drop the ``agent.`` prefix
+    (``activation.k``), as ``TD3.with_hparams`` takes them."""
+    lanes = num_lanes(cfg)
+    points = cfgmod.sweep_points(cfg)
+    seeds = np.arange(cfg.first_seed, cfg.first_seed + cfg.seeds)
+    seed_ids = np.resize(np.tile(seeds, len(points)), lanes).astype(np.int32)
+    hparams = {
+        key.split(".", 1)[1]: np.resize(np.repeat([p[key] for p in points], cfg.seeds), lanes).astype(dtype)
+        for key in cfg.sweep
+    }
+    return seed_ids, hparams
+
+
+def chunk_compiler_options(cfg: Config) -> dict:
+    """XLA options of the training chunk: on a CPU backend, XLA's YNNPACK library fusions are
+    switched off unless ``cfg.xla_cpu_ynn_fusions`` (measured faster without them; config.py)."""
+    if cfg.xla_cpu_ynn_fusions or jax.default_backend() != "cpu":
+        return {}
+    return {"xla_cpu_experimental_ynn_fusion_type": ""}
+
+
+def programs(cfg: Config) -> Programs:
+    """Build (or reuse, within this process) the env, agent and jitted functions for ``cfg``.
+
+    The compiled program depends only on the fields in the cache key, not on seeds' identities,
+    total_steps or outputs, so e.g. a resumed or re-run config in the same process compiles nothing."""
+    _setup_precision(cfg)
+    # every config field that changes the built program (seeds only change the lane shapes)
+    key = (cfg.env, cfg.agent, cfg.learning_starts, cfgmod.steps_per_call(cfg), cfg.eval_episodes,
+           cfg.replay_size, cfg.precision, cfg.matmul_dtype, cfg.matmul_precision, cfg.xla_cpu_ynn_fusions)
+    if key not in _PROGRAMS:
+        env, eval_env, agent = build(cfg)
+        def init_lanes(base, seed_ids, hparams=None):
+            return jax.vmap(lambda i, h: loop.init_state(agent, env, cfg.replay_size, base, i, h))(seed_ids, hparams)
+
+        init_fn = jax.jit(init_lanes)
+        chunk_fn = jax.jit(loop.make_chunk_fn(agent, env, cfg.learning_starts, cfgmod.steps_per_call(cfg)),
+                           donate_argnums=0, compiler_options=chunk_compiler_options(cfg))
+        eval_fn = jax.jit(loop.make_eval_fn(agent, eval_env, cfg.eval_episodes, cfg.env.max_episode_steps))
+        _PROGRAMS[key] = Programs(env, eval_env, agent, init_fn, chunk_fn, eval_fn)
+    return _PROGRAMS[key]
+
+
+@dataclass
+class Lanes:
+    """The per-lane inputs of a run's programs, placed on the devices."""
+
+    count: int  # lanes ≥ sweep points × seeds (a padded single-lane run has 2)
+    seed_ids: np.ndarray  # int32[L]: the seed of every lane (host copy, for the run's files)
+    init_args: tuple  # (base_seed, seed_ids[, hparams]): ``init_fn``'s arguments
+    sweep_args: tuple  # (hparams,) with a sweep, () without: the extra argument of chunk_fn/eval_fn
+    sharding: object  # the lane axis' sharding over devices, or None (one device)
+
+
+def lanes(cfg: Config, prog: Programs, log: Callable[[str], None]) -> Lanes:
+    """The lanes of ``cfg`` for ``prog``; ``log`` gets how they are spread over several devices
+    (and a warning when ``host_devices`` asks for more than JAX started with)."""
+    count = num_lanes(cfg)
+    seed_ids, hparams_np = lane_inputs(cfg, prog.agent.dtype)
+    if cfg.host_devices and jax.devices()[0].platform == "cpu" and jax.device_count() != cfg.host_devices:
+        log(f"warning: host_devices={cfg.host_devices} but JAX started with {jax.device_count()} devices; "
+            f"set XLA_FLAGS=--xla_force_host_platform_device_count={cfg.host_devices} before Python starts")
+    sharding, how = lane_sharding(count) if cfg.shard_lanes else (None, "shard_lanes=false")
+    if sharding is not None and cfg.env.backend == "mujoco":
+        # XLA's SPMD partitioner places host callbacks on device 0 (gather, step, scatter every
+        # step); the native physics already spreads lanes over cores in its own thread pool
+        sharding, how = None, "env.backend=mujoco: lanes on one device (its thread pool spreads the physics)"
+    if jax.device_count() > 1:
+        log(f"lanes: {how}")
+    hparams = place({k: jnp.asarray(v) for k, v in hparams_np.items()}, sharding)
+    sweep_args = (hparams,) if hparams else ()  # no sweep: the functions' 2-/3-argument signatures
+    init_args = (jnp.asarray(cfg.seed, jnp.uint32), jnp.asarray(seed_ids), *sweep_args)
+    return Lanes(count, seed_ids, init_args, sweep_args, sharding)
+
+
+def compilation_cache_dir() -> str:
+    """``$XDG_CACHE_HOME/swim-jax/xla`` (default ``~/.cache/swim-jax/xla``)."""
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return os.path.join(base, "swim-jax", "xla")
+
+
+def use_compilation_cache() -> str | None:
+    """Turn on JAX's persistent compilation cache in :func:`compilation_cache_dir` unless
+    ``SWIM_JAX_NO_COMPILATION_CACHE`` is set or a cache folder is already configured (e.g. by
+    ``JAX_COMPILATION_CACHE_DIR``); returns the folder in use. Programs with host callbacks (the
+    native physics backend) are not cached by JAX; they compile in seconds."""
+    if os.environ.get("SWIM_JAX_NO_COMPILATION_CACHE"):
+        return None
+    if not jax.config.jax_compilation_cache_dir:
+        jax.config.update("jax_compilation_cache_dir", compilation_cache_dir())
+        jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
+    return jax.config.jax_compilation_cache_dir
+
+
+def backends_started() -> bool:
+    """Whether JAX has started its backends (after which ``XLA_FLAGS`` is no longer read)."""
+    return bool(xla_bridge._backends)
