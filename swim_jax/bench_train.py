@@ -227,10 +227,10 @@ def markdown(res: dict) -> str:
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     if args.host_devices > 0:
-        from swim_jax.sharding import set_host_devices  # before anything imports jax
+        from swim_jax.sharding import set_host_devices  # XLA_FLAGS set before the JAX backend starts
 
         set_host_devices(args.host_devices)
-    from swim_jax.config import ConfigError  # after set_host_devices: config imports jax
+    from swim_jax.config import ConfigError  # after set_host_devices (as every import below)
 
     try:
         lanes = _lanes(args.lanes)
