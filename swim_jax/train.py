@@ -344,8 +344,9 @@ def parse_args(argv: list[str]) -> tuple[Config, str | None]:
     config_name, resume, overrides = None, None, []
     it = iter(argv)
     for tok in it:
-        if tok in ("-h", "--help"):
-            raise SystemExit(USAGE)
+        if tok in ("-h", "--help"):  # usage on stdout, exit status 0, as argparse does
+            print(USAGE)
+            raise SystemExit(0)
         if tok == "--resume":
             resume = next(it, None)
             if resume is None:

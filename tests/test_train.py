@@ -526,3 +526,10 @@ def test_ynn_fusions_are_off_in_the_cpu_training_chunk_unless_asked_for():
 
     assert "__ynn_fusion" not in compiled_text(tiny("seeds=1", "pad_single_seed=false"))
     assert "__ynn_fusion" in compiled_text(tiny("seeds=1", "pad_single_seed=false", "xla_cpu_ynn_fusions=true"))
+
+
+def test_help_prints_usage_on_stdout_and_exits_0():
+    out = subprocess.run([sys.executable, "-m", "swim_jax.train", "--help"], cwd=REPO,
+                         capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.startswith("usage: python -m swim_jax.train config=<name>")
