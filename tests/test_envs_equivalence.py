@@ -23,37 +23,12 @@ import pytest
 
 import envs
 from envs import gym_reference as gr
+from envcases import N_STEPS, env_params, teacher_forced_errors
 
 ATOL_F32 = 1e-4
-N_STEPS = 1000
 # max abs obs error ceilings in float32 (about 3x the measured maxima, docs/ENVS.md)
 MAX_OBS_F32 = {"Hopper-v5": 1e-4, "Hopper-v4": 1e-4, "Swimmer-v5": 1e-4, "Walker2d-v5": 3e-4,
                "Walker2d-v4": 3e-4, "HalfCheetah-v5": 1.5e-3, "Ant-v5": 6e-4}
-FAST = ("Hopper-v5", "HalfCheetah-v5")
-
-
-def env_params(ids, fast=FAST):
-    """pytest params: ``fast`` ids in the default run, the rest marked slow."""
-    return [pytest.param(e, marks=[] if e in fast else [pytest.mark.slow]) for e in ids]
-
-
-def teacher_forced_errors(env_id, **options):
-    """Max abs obs / reward errors and terminated mismatches over both recorded trajectories."""
-    env = envs.make(env_id, **options)
-    rec = gr.record_random_and_sine(env_id, N_STEPS, seed=7)
-    st = gr.run_teacher_forced(env, rec)
-    obs = np.asarray(st.obs, np.float64)
-    scale = np.maximum(1.0, np.abs(rec["obs"]))
-    err = np.abs(obs - rec["obs"])
-    return {
-        "obs": float(err.max()),
-        "obs_p99": float(np.percentile(err.max(axis=1), 99)),
-        "obs_rel": float((np.abs(obs - rec["obs"]) / scale).max()),
-        "reward": float(np.abs(np.asarray(st.reward, np.float64) - rec["reward"]).max()),
-        "term_mismatch": int(((np.asarray(st.done) > 0) != rec["terminated"]).sum()),
-        "n_terminated": int(rec["terminated"].sum()),
-        "dtype": str(env.dtype),
-    }
 
 
 def test_record_applies_solver_options():

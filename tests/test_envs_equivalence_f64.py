@@ -1,14 +1,14 @@
 """Teacher-forced equivalence with Gymnasium in float64 (JAX x64 mode): bound 1e-8 absolute.
 
-x64 mode is switched on only inside this module's fixture and restored afterwards, so the rest
-of the session keeps float32. The envs are built while x64 is on (the physics dtype follows x64).
+x64 mode is switched on only inside the ``x64`` fixture (tests/conftest.py) and restored
+afterwards, so the rest of the session keeps float32. The envs are built while x64 is on (the physics dtype follows x64).
 """
 
 import jax
 import numpy as np
 import pytest
 
-from test_envs_equivalence import env_params, teacher_forced_errors
+from envcases import env_params, teacher_forced_errors
 
 ATOL_F64 = 1e-8
 # Measured (docs/ENVS.md) with MuJoCo C's Newton solver (envs/mjx_solver.py) and RK4 scheme
@@ -18,13 +18,6 @@ ATOL_F64 = 1e-8
 ALL = ("Hopper-v5", "Walker2d-v5", "HalfCheetah-v5", "Swimmer-v5", "Ant-v5", "Hopper-v4",
        "Walker2d-v4")
 
-
-@pytest.fixture(scope="module")
-def x64():
-    prev = jax.config.jax_enable_x64
-    jax.config.update("jax_enable_x64", True)
-    yield
-    jax.config.update("jax_enable_x64", prev)
 
 
 @pytest.mark.parametrize("env_id", env_params(ALL, fast=("Hopper-v5", "HalfCheetah-v5")))

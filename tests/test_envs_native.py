@@ -16,19 +16,12 @@ import pytest
 
 import envs
 from envs import gym_reference as gr
-from test_envs_equivalence import N_STEPS, env_params
+from envcases import N_STEPS, env_params
 
 ALL = ("Hopper-v5", "Walker2d-v5", "HalfCheetah-v5", "Swimmer-v5", "Ant-v5", "Hopper-v4",
        "Walker2d-v4")
 FAST = ("Hopper-v5", "HalfCheetah-v5")
 
-
-@pytest.fixture
-def x64():
-    prev = jax.config.jax_enable_x64
-    jax.config.update("jax_enable_x64", True)
-    yield
-    jax.config.update("jax_enable_x64", prev)
 
 
 @pytest.fixture(scope="module")

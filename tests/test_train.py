@@ -23,7 +23,6 @@ import pytest
 from tensorboardX.crc32c import crc32c
 from tensorboardX.proto.event_pb2 import Event, SessionLog
 
-from agents.loop import CHECKED
 from agents import loop
 from swim_jax import config as cfgmod
 from swim_jax import learning_log, report, tensorboard_log, train
@@ -345,7 +344,7 @@ def test_nan_detection_names_seed_step_and_quantity(vmapped):
     st = st._replace(agent=st.agent._replace(critic=critic))
     out, metrics = vmapped.chunk_fn(st, jnp.int32(4000))
     hit = train._first_bad(np.asarray(out.bad_step))
-    assert hit == (1, 4000, CHECKED[0]) and CHECKED[0] == "critic_loss"
+    assert hit == (1, 4000, "critic_loss")
     assert np.all(np.asarray(out.bad_step)[0] == -1)
     assert np.isnan(np.asarray(metrics.critic_loss)[1]) and np.isfinite(np.asarray(metrics.critic_loss)[0])
 
@@ -474,20 +473,16 @@ def test_programs_are_rebuilt_for_each_matmul_setting():
     assert programs(tiny("seeds=5")) is plain  # seeds only change the lane shapes
 
 
-def test_float64_precision_builds_everything_in_float64():
+def test_float64_precision_builds_everything_in_float64(restore_x64):
     """precision=float64: env physics, observations, params, Adam state and replay are all f64
     (init program only; the full f64 chunk compiles too slowly for the default run)."""
-    prev = bool(jax.config.jax_enable_x64)
-    try:
-        cfg = tiny("precision=float64", "seeds=2", "replay_size=100")
-        prog = programs(cfg)
-        assert jax.config.jax_enable_x64
-        st = prog.init_fn(jnp.asarray(0, jnp.uint32), jnp.arange(2, dtype=jnp.int32))
-        floats = [x for x in jax.tree.leaves(st) if jnp.issubdtype(x.dtype, jnp.floating)]
-        assert floats and all(x.dtype == jnp.float64 for x in floats)
-        assert st.env_state.obs.dtype == jnp.float64 and st.buffer.data.obs.dtype == jnp.float64
-    finally:
-        jax.config.update("jax_enable_x64", prev)
+    cfg = tiny("precision=float64", "seeds=2", "replay_size=100")
+    prog = programs(cfg)
+    assert jax.config.jax_enable_x64
+    st = prog.init_fn(jnp.asarray(0, jnp.uint32), jnp.arange(2, dtype=jnp.int32))
+    floats = [x for x in jax.tree.leaves(st) if jnp.issubdtype(x.dtype, jnp.floating)]
+    assert floats and all(x.dtype == jnp.float64 for x in floats)
+    assert st.env_state.obs.dtype == jnp.float64 and st.buffer.data.obs.dtype == jnp.float64
 
 
 @pytest.mark.slow
