@@ -24,8 +24,7 @@ def main(argv: list[str] | None = None) -> int:
         print(USAGE)
         return 0 if argv else 2
     command, rest = argv[0], argv[1:]
-    # each benchmark is imported only when chosen: `bench train --host-devices N` must set
-    # XLA_FLAGS before anything starts the JAX backend, and the others load what they time
+    # each benchmark is imported only when chosen: its imports load what it times (envs, agents)
     if command == "activations":
         from swim_jax.bench_activations import main as run
     elif command == "rsqrt":

@@ -34,6 +34,16 @@ import statistics
 import sys
 import time
 
+import jax
+import jax.numpy as jnp
+
+from agents.replay import Transition
+from swim_jax import config as cfgmod
+from swim_jax import programs, roofline, train
+from swim_jax.config import ConfigError
+# importing these does not start the JAX backend, so --host-devices (XLA_FLAGS) still applies
+from swim_jax.sharding import lane_sharding, place, set_host_devices
+
 
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m swim_jax.bench train", description=__doc__.split("\n")[0])
@@ -74,11 +84,6 @@ def update_flops(agent) -> float:
     step: ``((d - 1) · F_critic + F_critic+actor) / d`` with d = ``policy_freq``. Multiplying by
     updates per second gives the arithmetic rate the training program sustains in its updates.
     """
-    import jax  # after --host-devices: the JAX backend reads XLA_FLAGS when it starts
-    import jax.numpy as jnp
-
-    from agents.replay import Transition
-
     b, o, a = agent.config.batch_size, agent.obs_dim, agent.action_dim
     z = lambda *shape: jnp.zeros(shape, agent.dtype)
     batch = Transition(z(b, o), z(b, a), z(b), z(b, o), z(b))
@@ -95,8 +100,6 @@ def update_flops(agent) -> float:
 def _candidates(lanes: list[int], variant_cfgs: dict, shard: str) -> list[tuple]:
     """(lanes, sharding or None, variant) for every program to time: each lane count on one
     device and/or split over the devices (``shard``), each with every variant."""
-    from swim_jax.sharding import lane_sharding  # after --host-devices: the JAX backend reads XLA_FLAGS when it starts
-
     candidates = []
     for L in lanes:
         sh, _why = lane_sharding(L)
@@ -134,13 +137,6 @@ def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overr
             shard: str = "auto", variants=(), with_roofline: bool = False) -> dict:
     """Compile one program per (lane count, placement, variant), then time ``repeats`` interleaved
     chunks of each. ``variants``: extra override strings "k=v,k=v"; "" (always first) = none."""
-    import jax  # after --host-devices: the JAX backend reads XLA_FLAGS when it starts
-    import jax.numpy as jnp
-
-    from swim_jax import config as cfgmod
-    from swim_jax import programs, train
-    from swim_jax.sharding import place
-
     bench = [f"eval_freq={chunk_steps}", f"total_steps={chunk_steps}", "learning_starts=0",
              "replay_size=100000", f"progress_steps={chunk_steps}", *overrides]
     variant_cfgs = {v: cfgmod.resolve(config, [*bench, *(v.split(",") if v else [])]) for v in ("", *variants)}
@@ -194,8 +190,6 @@ def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overr
 def _rooflines(config: str, overrides, agent, log) -> dict:
     """The update's matmul roofline (``swim_jax.roofline``) on all cores (this process) and on one
     core (a pinned child process with single-threaded XLA)."""
-    from swim_jax import roofline  # after --host-devices (see measure)
-
     all_cores = roofline.roofline(agent)
     one_core = roofline.one_core_roofline(config, overrides)
     cores = len(os.sched_getaffinity(0))
@@ -227,11 +221,7 @@ def markdown(res: dict) -> str:
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     if args.host_devices > 0:
-        from swim_jax.sharding import set_host_devices  # XLA_FLAGS set before the JAX backend starts
-
         set_host_devices(args.host_devices)
-    from swim_jax.config import ConfigError  # after set_host_devices (as every import below)
-
     try:
         lanes = _lanes(args.lanes)
         if args.chunk_steps < 1 or args.repeats < 1:
