@@ -84,7 +84,8 @@ class Config:
     # second run of the same program starts in seconds; false (or SWIM_JAX_NO_COMPILATION_CACHE=1) = off
     compilation_cache: bool = True
     # XLA CPU's YNNPACK library fusions in the training program (XLA's default is on); off measured
-    # 0-5 % (median ~3 %) faster per training step on a 2-core Zen 4 (docs/BENCHMARKS.md section 4). No effect on GPUs.
+    # between 5 % faster and 3 % slower per training step on a 2-core Zen 4, i.e. within noise
+    # (docs/BENCHMARKS.md section 4). No effect on GPUs.
     xla_cpu_ynn_fusions: bool = False
     # also write metrics.csv's scalars and the evaluation returns as TensorBoard event files, one
     # run per seed: <run>/tensorboard/seed_<i>/ (swim_jax/tensorboard_log.py); needs tensorboardX,
