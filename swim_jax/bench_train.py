@@ -149,7 +149,7 @@ def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overr
     for c in candidates:
         L, sh, v = c
         cfgs[c] = dataclasses.replace(variant_cfgs[v], seeds=L, pad_single_seed=False)
-        progs[c] = prog = programs.programs(cfgs[c])
+        progs[c] = prog = programs.programs(cfgs[c], sh)
         st = place(prog.init_fn(jnp.asarray(0, jnp.uint32), jnp.arange(L, dtype=jnp.int32)), sh)
         t0 = time.perf_counter()
         states[c] = run_chunk(c, st, 0)

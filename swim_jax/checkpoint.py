@@ -41,14 +41,24 @@ class Checkpointer:
         """The newest complete checkpoint's step, or None."""
         return self.manager.latest_step()
 
-    def restore(self, step: int, template):
-        """Checkpoint ``step`` as a tree shaped like ``template`` (arrays or ShapeDtypeStructs)."""
+    def restore(self, step: int, template, shardings=None):
+        """Checkpoint ``step`` as a tree shaped like ``template`` (arrays or ShapeDtypeStructs).
+
+        ``shardings`` (a tree of shardings matching ``template``, or None): where every array goes,
+        straight from the files; with several processes each reads only its own devices' part. None:
+        ordinary (uncommitted) arrays on the default device."""
         leaves, treedef = jax.tree.flatten(template)
+        where = [None] * len(leaves) if shardings is None else jax.tree.leaves(
+            shardings, is_leaf=lambda x: isinstance(x, jax.sharding.Sharding))
         abstract = {
-            f"{i:05d}": jax.ShapeDtypeStruct(np.shape(x), x.dtype)
-            for i, x in enumerate(leaves) if np.prod(np.shape(x)) > 0
+            f"{i:05d}": jax.ShapeDtypeStruct(np.shape(x), x.dtype, sharding=sh)
+            for i, (x, sh) in enumerate(zip(leaves, where)) if np.prod(np.shape(x)) > 0
         }
         flat = self.manager.restore(int(step), args=ocp.args.StandardRestore(abstract))
+        if shardings is not None:
+            out = [flat[f"{i:05d}"] if f"{i:05d}" in flat else jax.device_put(np.zeros(np.shape(x), x.dtype), sh)
+                   for i, (x, sh) in enumerate(zip(leaves, where))]
+            return jax.tree.unflatten(treedef, out)
         # Orbax returns arrays committed to a device; jit keys its cache on that, so a committed
         # state would compile the training program again. Rebuild them as ordinary arrays.
         out = [jnp.asarray(np.asarray(flat[f"{i:05d}"])) if f"{i:05d}" in flat else jnp.zeros(np.shape(x), x.dtype)
@@ -58,3 +68,13 @@ class Checkpointer:
     def close(self) -> None:
         """Stop the checkpoint manager (call once no save is needed any more)."""
         self.manager.close()
+
+
+def latest_complete_step(directory: str) -> int | None:
+    """The newest complete checkpoint's step under ``directory`` read from the folder names alone
+    (orbax renames a checkpoint to its bare step once every process has written it), without
+    starting a checkpoint manager; None when there is none. For error messages."""
+    if not os.path.isdir(directory):
+        return None
+    steps = [int(name) for name in os.listdir(directory) if name.isdigit()]
+    return max(steps) if steps else None

@@ -21,6 +21,7 @@ import numpy as np
 from swim_jax import config as cfgmod
 from swim_jax import learned_params, learning_log, tensorboard_log
 from swim_jax.config import Config
+from swim_jax.distributed import to_host
 
 
 def new_run_dir(cfg: Config) -> str:
@@ -95,10 +96,13 @@ LOG_FILES = (learned_params.FILENAME, learning_log.FILENAME)  # appended to afte
 
 class RunFolder:
     """The run folder of ``cfg`` at ``run_dir`` and its output folders: one per sweep point, lanes
-    ``p·seeds … (p+1)·seeds − 1`` (``seed_ids``: the seed of every lane) writing into point ``p``'s."""
+    ``p·seeds … (p+1)·seeds − 1`` (``seed_ids``: the seed of every lane) writing into point ``p``'s.
 
-    def __init__(self, cfg: Config, run_dir: str, seed_ids: np.ndarray):
-        self.cfg, self.run_dir, self.seed_ids = cfg, run_dir, seed_ids
+    With several processes every process calls every method (some gather lanes from the others) and
+    only the one made with ``writes=True`` (process 0) writes files."""
+
+    def __init__(self, cfg: Config, run_dir: str, seed_ids: np.ndarray, writes: bool = True):
+        self.cfg, self.run_dir, self.seed_ids, self.writes = cfg, run_dir, seed_ids, writes
         self.points = cfgmod.sweep_points(cfg)
         self.real_lanes = len(self.points) * cfg.seeds  # the padded lane of a single-seed run left out
         self.outputs = point_outputs(cfg, run_dir, self.points)  # (folder, plain config) per point
@@ -107,6 +111,8 @@ class RunFolder:
 
     def create(self, fresh: bool) -> None:
         """Make the folders; a fresh run writes config.yaml (per point too, with point.json)."""
+        if not self.writes:
+            return
         os.makedirs(self.run_dir, exist_ok=True)
         if not fresh:
             return
@@ -123,6 +129,8 @@ class RunFolder:
     def start_logs(self, restored_step: int | None, closing: contextlib.ExitStack) -> None:
         """Cut the logs after the checkpoint at ``restored_step``, or (None: training starts at step
         0) remove them; then open the TensorBoard writers (closed by ``closing``) if configured."""
+        if not self.writes:
+            return
         for out_dir, _ in self.outputs:
             for name in LOG_FILES:
                 path = os.path.join(out_dir, name)
@@ -143,17 +151,23 @@ class RunFolder:
         """Evaluation ``j``'s returns ``[lanes, episodes]`` as TensorBoard events, and the learnable
         activation parameters of ``agent`` (the lane-batched actor and critic) at its step."""
         step = j * self.cfg.eval_freq
+        # gathered from every process before the writing process returns early
+        values = (learned_params.activation_params(to_host(agent.actor), to_host(agent.critic))
+                  if self.cfg.agent.activation.learnable else None)
+        if not self.writes:
+            return
         if self.tb is not None:
             for lanes, (out_dir, _) in zip(self.lanes, self.outputs):
                 self.tb.evaluation(out_dir, step, self.seed_ids[lanes], returns[lanes].mean(axis=1))
-        if self.cfg.agent.activation.learnable:
-            values = learned_params.activation_params(agent.actor, agent.critic)
+        if values is not None:
             for lanes, (out_dir, _) in zip(self.lanes, self.outputs):
                 learned_params.append(os.path.join(out_dir, learned_params.FILENAME), step,
                                       self.seed_ids[lanes], {k: v[lanes] for k, v in values.items()})
 
     def chunk(self, step: int, metrics: dict, episodes: np.ndarray, last_return: np.ndarray) -> None:
         """A chunk's learning metrics (per lane, ending at ``step``): metrics.csv rows and events."""
+        if not self.writes:
+            return
         for lanes, (out_dir, _) in zip(self.lanes, self.outputs):
             rows = learning_log.chunk_rows(step, self.seed_ids[lanes], {k: v[lanes] for k, v in metrics.items()},
                                            episodes[lanes], last_return[lanes])
@@ -163,6 +177,8 @@ class RunFolder:
 
     def evaluations(self, evals: np.ndarray, n_done: int) -> None:
         """The evaluation files of the first ``n_done`` of ``evals[n_evals, lanes, episodes]``."""
+        if not self.writes:
+            return
         for lanes, (out_dir, point_cfg) in zip(self.lanes, self.outputs):
             write_evaluations(out_dir, point_cfg, evals[:, lanes], n_done)
         if self.cfg.sweep:
@@ -170,11 +186,15 @@ class RunFolder:
 
     def final_policy(self, final_actor: dict[str, np.ndarray]) -> None:
         """``final_policy.npz`` of every output folder from the flat actor params of the real lanes."""
+        if not self.writes:
+            return
         for lanes, (out_dir, _) in zip(self.lanes, self.outputs):
             np.savez(os.path.join(out_dir, "final_policy.npz"), **{k: v[lanes] for k, v in final_actor.items()})
 
     def timing(self, timing: dict) -> None:
         """``timing.json`` in the run folder and every output folder."""
+        if not self.writes:
+            return
         for out_dir in {self.run_dir, *(d for d, _ in self.outputs)}:
             with open(os.path.join(out_dir, "timing.json"), "w") as f:
                 json.dump(timing, f, indent=2)

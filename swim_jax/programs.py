@@ -1,9 +1,10 @@
 """The training program of a config: env, agent and the jitted functions, built once per process.
 
-``programs(cfg)`` builds (or reuses) the env, eval env, TD3 agent and the three jitted functions of
-agents/loop.py for ``cfg``; ``lanes(cfg, prog)`` gives their per-lane inputs (seed ids, sweep values,
-device placement). ``swim_jax.train`` runs them; ``swim_jax.render``/``roofline`` use :func:`build`
-and ``swim_jax.bench_train`` times :func:`programs`' chunk.
+``placement(cfg)`` decides how the lanes spread over the devices (of every process), ``programs(cfg,
+sharding)`` builds (or reuses) the env, eval env, TD3 agent and the three jitted functions of
+agents/loop.py for that placement, and ``lanes(cfg, prog, sharding)`` gives their per-lane inputs
+(seed ids, sweep values). ``swim_jax.train`` runs them; ``swim_jax.render``/``roofline`` use
+:func:`build` and ``swim_jax.bench_train`` times :func:`programs`' chunk.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from agents import loop
 from agents.td3 import TD3
 from swim_jax import config as cfgmod
 from swim_jax.config import Config
-from swim_jax.sharding import lane_sharding, place
+from swim_jax.sharding import lane_sharding, over_lanes, place
 
 
 def _setup_precision(cfg: Config) -> None:
@@ -96,24 +97,29 @@ def chunk_compiler_options(cfg: Config) -> dict:
     return {"xla_cpu_experimental_ynn_fusion_type": ""}
 
 
-def programs(cfg: Config) -> Programs:
-    """Build (or reuse, within this process) the env, agent and jitted functions for ``cfg``.
+def programs(cfg: Config, sharding=None) -> Programs:
+    """Build (or reuse, within this process) the env, agent and jitted functions for ``cfg``, with
+    the lanes split over ``sharding``'s devices (``swim_jax.sharding.over_lanes``) unless None.
 
     The compiled program depends only on the fields in the cache key, not on seeds' identities,
     total_steps or outputs, so e.g. a resumed or re-run config in the same process compiles nothing."""
     _setup_precision(cfg)
     # every config field that changes the built program (seeds only change the lane shapes)
     key = (cfg.env, cfg.agent, cfg.learning_starts, cfgmod.steps_per_call(cfg), cfg.eval_episodes,
-           cfg.replay_size, cfg.precision, cfg.matmul_dtype, cfg.matmul_precision, cfg.xla_cpu_ynn_fusions)
+           cfg.replay_size, cfg.precision, cfg.matmul_dtype, cfg.matmul_precision, cfg.xla_cpu_ynn_fusions,
+           sharding)
     if key not in _PROGRAMS:
         env, eval_env, agent = build(cfg)
         def init_lanes(base, seed_ids, hparams=None):
             return jax.vmap(lambda i, h: loop.init_state(agent, env, cfg.replay_size, base, i, h))(seed_ids, hparams)
 
-        init_fn = jax.jit(init_lanes)
-        chunk_fn = jax.jit(loop.make_chunk_fn(agent, env, cfg.learning_starts, cfgmod.steps_per_call(cfg)),
-                           donate_argnums=0, compiler_options=chunk_compiler_options(cfg))
-        eval_fn = jax.jit(loop.make_eval_fn(agent, eval_env, cfg.eval_episodes, cfg.env.max_episode_steps))
+        chunk = loop.make_chunk_fn(agent, env, cfg.learning_starts, cfgmod.steps_per_call(cfg))
+        evaluate = loop.make_eval_fn(agent, eval_env, cfg.eval_episodes, cfg.env.max_episode_steps)
+        # the replicated arguments: the base seed, the chunk's first step, the evaluation index
+        init_fn = jax.jit(over_lanes(init_lanes, sharding, replicated=(0,)))
+        chunk_fn = jax.jit(over_lanes(chunk, sharding, replicated=(1,)), donate_argnums=0,
+                           compiler_options=chunk_compiler_options(cfg))
+        eval_fn = jax.jit(over_lanes(evaluate, sharding, replicated=(2,)))
         _PROGRAMS[key] = Programs(env, eval_env, agent, init_fn, chunk_fn, eval_fn)
     return _PROGRAMS[key]
 
@@ -129,24 +135,35 @@ class Lanes:
     sharding: object  # the lane axis' sharding over devices, or None (one device)
 
 
-def lanes(cfg: Config, prog: Programs, log: Callable[[str], None]) -> Lanes:
-    """The lanes of ``cfg`` for ``prog``; ``log`` gets how they are spread over several devices
-    (and a warning when ``host_devices`` asks for more than JAX started with)."""
+def placement(cfg: Config, log: Callable[[str], None]):
+    """The sharding of ``cfg``'s lane axis over the devices of every process, or None (all lanes
+    on one device); ``log`` gets how (when there are several devices) and a warning when
+    ``host_devices`` asks for more than JAX started with. ConfigError when several processes run
+    and the lanes cannot be split over all their devices."""
     count = num_lanes(cfg)
-    seed_ids, hparams_np = lane_inputs(cfg, prog.agent.dtype)
-    if cfg.host_devices and jax.devices()[0].platform == "cpu" and jax.device_count() != cfg.host_devices:
-        log(f"warning: host_devices={cfg.host_devices} but JAX started with {jax.device_count()} devices; "
+    if cfg.host_devices and jax.devices()[0].platform == "cpu" and jax.local_device_count() != cfg.host_devices:
+        log(f"warning: host_devices={cfg.host_devices} but JAX started with {jax.local_device_count()} devices; "
             f"set XLA_FLAGS=--xla_force_host_platform_device_count={cfg.host_devices} before Python starts")
     sharding, how = lane_sharding(count) if cfg.shard_lanes else (None, "shard_lanes=false")
-    if sharding is not None and cfg.env.backend == "mujoco":
-        # XLA's SPMD partitioner places host callbacks on device 0 (gather, step, scatter every
-        # step); the native physics already spreads lanes over cores in its own thread pool
-        sharding, how = None, "env.backend=mujoco: lanes on one device (its thread pool spreads the physics)"
+    if jax.process_count() > 1:
+        if sharding is None:
+            raise cfgmod.ConfigError(
+                f"{count} lanes cannot run on {jax.process_count()} processes with {jax.device_count()} devices "
+                f"({how}); use a multiple of {jax.device_count()} lanes (seeds × sweep points) and shard_lanes=true")
+        how += f" in {jax.process_count()} processes"
     if jax.device_count() > 1:
         log(f"lanes: {how}")
-    hparams = place({k: jnp.asarray(v) for k, v in hparams_np.items()}, sharding)
+    return sharding
+
+
+def lanes(cfg: Config, prog: Programs, sharding) -> Lanes:
+    """The lanes of ``cfg`` for ``prog`` (built for ``sharding``, from :func:`placement`)."""
+    count = num_lanes(cfg)
+    seed_ids, hparams_np = lane_inputs(cfg, prog.agent.dtype)
+    hparams = place({k: jnp.asarray(v) if sharding is None else v for k, v in hparams_np.items()}, sharding)
     sweep_args = (hparams,) if hparams else ()  # no sweep: the functions' 2-/3-argument signatures
-    init_args = (jnp.asarray(cfg.seed, jnp.uint32), jnp.asarray(seed_ids), *sweep_args)
+    ids = jnp.asarray(seed_ids) if sharding is None else place(seed_ids, sharding)
+    init_args = (jnp.asarray(cfg.seed, jnp.uint32), ids, *sweep_args)
     return Lanes(count, seed_ids, init_args, sweep_args, sharding)
 
 

@@ -1,18 +1,19 @@
 """Split the lane axis (seeds × sweep points) of the training state across devices.
 
-Every array of the training state has the lanes as its leading axis and lanes never exchange data
-(except the evaluation loop's "all episodes done" test), so the program is partitioned by placing
-the state with ``NamedSharding(Mesh(devices, ("lane",)), P("lane"))``: jit then compiles it as one
-SPMD program, each device running its own block of lanes. The same code uses
+Every array of the training state has the lanes as its leading axis and lanes never exchange data,
+so the state is placed with ``NamedSharding(Mesh(devices, ("lane",)), P("lane"))`` and each program
+runs as :func:`over_lanes`: a ``shard_map`` in which every device steps its own block of lanes with
+the one-device program (vmapped over fewer lanes; no collective inside, host callbacks of the
+native physics run on the device that owns the lanes). The same code uses
 
 * several host CPU "devices" on one machine: ``XLA_FLAGS=--xla_force_host_platform_device_count=N``
   set before JAX starts (``swim_jax.train``'s ``host_devices=N`` does it for you);
-* several GPUs of one machine: nothing to set, ``jax.devices()`` lists them.
+* several GPUs of one machine: nothing to set, ``jax.devices()`` lists them;
+* several processes or hosts: ``jax.distributed`` (swim_jax/distributed.py) makes ``jax.devices()``
+  list every process's devices.
 
-Lanes must divide evenly by the device count; otherwise everything stays on the first device and
-:func:`lane_sharding` says why. Several *hosts* (``jax.distributed``) are not supported yet: the
-training loop reads per-lane results back with ``np.asarray``, which needs every lane addressable
-from the one process.
+Lanes must divide evenly by the device count; otherwise (one process) everything stays on the first
+device and :func:`lane_sharding` says why.
 """
 
 from __future__ import annotations
@@ -50,3 +51,18 @@ def place(tree, sharding: NamedSharding | None):
     if sharding is None:
         return tree
     return jax.device_put(tree, sharding)
+
+
+def over_lanes(fn, sharding: NamedSharding | None, replicated: tuple[int, ...] = ()):
+    """``fn`` run per device on that device's block of lanes (``jax.shard_map``), or ``fn`` itself
+    when ``sharding`` is None. Positional arguments in ``replicated`` (scalars such as a step index)
+    are passed whole to every device; all others, and every output, carry the lane axis first."""
+    if sharding is None:
+        return fn
+
+    def per_device(*args):
+        specs = tuple(PartitionSpec() if i in replicated else PartitionSpec(AXIS) for i in range(len(args)))
+        return jax.shard_map(fn, mesh=sharding.mesh, in_specs=specs, out_specs=PartitionSpec(AXIS),
+                             check_vma=False)(*args)
+
+    return per_device

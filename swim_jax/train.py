@@ -52,16 +52,19 @@ import yaml
 
 from agents.loop import CHECKED
 from swim_jax import config as cfgmod
-from swim_jax import learning_log, outputs
-from swim_jax.checkpoint import Checkpointer
+from swim_jax import distributed, learning_log, outputs
+from swim_jax.checkpoint import Checkpointer, latest_complete_step
 from swim_jax.config import Config, ConfigError
-from swim_jax.programs import (Lanes, Programs, backends_started, lanes as program_lanes, num_lanes, programs,
-                               use_compilation_cache)
+from swim_jax.distributed import to_host
+from swim_jax.programs import (Lanes, Programs, backends_started, lanes as program_lanes, num_lanes, placement,
+                               programs, use_compilation_cache)
 from swim_jax.sharding import place, set_host_devices
 
 USAGE = (
     "usage: python -m swim_jax.train config=<name> [key=value ...]   (sweeps: python -m swim_jax.sweep)\n"
-    "       python -m swim_jax.train --resume <run dir>"
+    "       python -m swim_jax.train --resume <run dir>\n"
+    "several processes (every one runs the same command; docs/DISTRIBUTED.md):\n"
+    "       ... --coordinator <host:port> --num-processes <N> --process-id <0..N-1>"
 )
 
 
@@ -118,9 +121,10 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
     clock = _Clock(time.time())
     say(f"building {cfg.env.id} ({cfg.env.backend} physics, {cfg.precision}) and the TD3 program for "
         f"{num_lanes(cfg)} lanes")
-    prog = programs(cfg)
-    lanes = program_lanes(cfg, prog, log)
-    folder = outputs.RunFolder(cfg, run_dir, lanes.seed_ids)
+    sharding = placement(cfg, log)
+    prog = programs(cfg, sharding)
+    lanes = program_lanes(cfg, prog, sharding)
+    folder = outputs.RunFolder(cfg, run_dir, lanes.seed_ids, writes=distributed.is_writer())
     folder.create(fresh=not resume)
     ckpt = Checkpointer(os.path.join(run_dir, "checkpoints"), keep=cfg.keep_checkpoints)
     evals = _Evaluations(cfg, prog, lanes)
@@ -142,18 +146,18 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
             say(f"compiling the training program and running its first {cfg.eval_freq} steps "
                 f"(compiles take seconds to minutes on a CPU; cached for the next run)")
         states, metrics = train_chunk(cfg, prog.chunk_fn, states, c, lanes.sweep_args, lanes.sharding, say)
-        bad = np.asarray(states.bad_step)  # waits for the chunk
+        bad = to_host(states.bad_step)  # waits for the chunk
         dt = clock.trained(time.time() - t0, cfg.eval_freq)
         step = (c + 1) * cfg.eval_freq
         _stop_if_non_finite(cfg, folder.points, bad[: folder.real_lanes], ckpt, run_dir)
         folder.evaluation(c + 1, evals.run(states, c + 1), states.agent)
-        folder.chunk(step, metrics, np.asarray(states.episodes), np.asarray(states.last_return))
-        ckpt.save(step, (states, jnp.asarray(evals.returns)))
+        folder.chunk(step, metrics, to_host(states.episodes), to_host(states.last_return))
+        ckpt.save(step, (states, evals.saved()))
         folder.evaluations(evals.returns, c + 2)
         clock.iteration_done(time.time() - t0)
         log(_progress_line(cfg, folder.points, step, evals.returns[c + 1, : folder.real_lanes], dt, c == start,
                            clock.elapsed(), clock.eta(n_chunks - c - 1), metrics))
-    final_actor = outputs.flat_params(jax.tree.map(lambda x: x[: folder.real_lanes], states.agent.actor))
+    final_actor = outputs.flat_params(jax.tree.map(lambda x: x[: folder.real_lanes], to_host(states.agent.actor)))
     folder.final_policy(final_actor)
     timing = _timing(cfg, prog, lanes, evals, clock, start if resume else None)
     folder.timing(timing)
@@ -165,10 +169,13 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
 def _restore(ckpt: Checkpointer, step: int, prog: Programs, lanes: Lanes, evals: _Evaluations):
     """The training state of the checkpoint at ``step``; its evaluations go into ``evals``."""
     # evals are stored in the compute dtype (exact: every return was computed in it)
-    template = (jax.eval_shape(prog.init_fn, *lanes.init_args),
-                jax.ShapeDtypeStruct(evals.returns.shape, jnp.asarray(evals.returns).dtype))
-    states, saved_evals = ckpt.restore(step, template)
-    evals.returns[:] = np.asarray(saved_evals)
+    template = (jax.eval_shape(prog.init_fn, *lanes.init_args), evals.saved())
+    shardings = None
+    if lanes.sharding is not None:  # the lanes straight onto their devices; the evaluations whole on each
+        everywhere = jax.sharding.NamedSharding(lanes.sharding.mesh, jax.sharding.PartitionSpec())
+        shardings = (jax.tree.map(lambda _: lanes.sharding, template[0]), everywhere)
+    states, saved_evals = ckpt.restore(step, template, shardings)
+    evals.returns[:] = to_host(saved_evals)
     return place(states, lanes.sharding)
 
 
@@ -190,14 +197,20 @@ class _Evaluations:
         self.returns = np.full((n_evals, lanes.count, cfg.eval_episodes), np.nan)
         self.seconds = 0.0
         self._eval_fn, self._sweep_args = prog.eval_fn, lanes.sweep_args
+        self._dtype = prog.agent.dtype
 
     def run(self, states, j: int) -> np.ndarray:
         """Evaluation ``j`` of ``states``' actors: its row of :attr:`returns`."""
         t0 = time.time()
         r = self._eval_fn(states.agent.actor, states.eval_key, jnp.asarray(j, jnp.int32), *self._sweep_args)
-        self.returns[j] = np.asarray(r)
+        self.returns[j] = to_host(r)
         self.seconds += time.time() - t0
         return self.returns[j]
+
+    def saved(self) -> np.ndarray:
+        """:attr:`returns` as checkpointed: in the compute dtype (exact: every return was computed
+        in it), the same on every process."""
+        return self.returns.astype(self._dtype)
 
 
 @dataclass
@@ -252,6 +265,7 @@ def _timing(cfg: Config, prog: Programs, lanes: Lanes, evals: _Evaluations, cloc
         "eval_compiles": prog.eval_fn._cache_size(),
         "platform": jax.devices()[0].platform,
         "devices": jax.device_count() if lanes.sharding is not None else 1,
+        "processes": jax.process_count(),
     }
 
 
@@ -298,14 +312,14 @@ def train_chunk(cfg: Config, chunk_fn, states, c: int, sweep_args, sharding, say
         states = place(states, sharding)
         metrics.append(m)
         if j + 1 < calls and time.time() - last >= PROGRESS_EVERY_S:
-            np.asarray(states.bad_step)  # wait for the call (cheap: a few ints)
+            jax.block_until_ready(states.bad_step)  # wait for the call (cheap: a few ints)
             now = time.time()
             done = (j + 1) * per_call
             rate = done / (now - t0)
             say(f"step {t + per_call}/{cfg.total_steps}: {rate * cfg.seeds * len(cfgmod.sweep_points(cfg)):.0f} env-steps/s in this chunk, "
                 f"evaluation in {_fmt_time((cfg.eval_freq - done) / rate)}")
             last = now
-    return states, learning_log.combine(metrics)
+    return states, learning_log.combine(to_host(metrics))
 
 
 def _progress_line(cfg: Config, points, step: int, ev: np.ndarray, dt: float, first: bool,
@@ -376,9 +390,12 @@ def parse_args(argv: list[str]) -> tuple[Config, str | None]:
 
 
 def main(argv: list[str] | None = None, require_sweep: bool = False) -> int:
-    """The command line of ``swim_jax.train`` (and, with ``require_sweep``, of ``swim_jax.sweep``)."""
+    """The command line of ``swim_jax.train`` (and, with ``require_sweep``, of ``swim_jax.sweep``);
+    with several processes (swim_jax/distributed.py) every process runs it, process 0 prints."""
     argv = sys.argv[1:] if argv is None else argv
     try:
+        flags, argv = distributed.pop_flags(argv)
+        launch = distributed.launch_from(flags)
         cfg, resume = parse_args(argv)
         if require_sweep and not cfg.sweep:
             raise ConfigError("no sweep axis given; add e.g. sweep.agent.activation.k=[0.25,0.5,1,2] "
@@ -386,22 +403,36 @@ def main(argv: list[str] | None = None, require_sweep: bool = False) -> int:
     except ConfigError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
-    run_dir = resume if resume else outputs.new_run_dir(cfg)
-    print(f"run dir: {run_dir}", flush=True)
+    if cfg.host_devices and not backends_started():
+        set_host_devices(cfg.host_devices)  # before the backends start (joining the processes starts them)
     try:
-        res = run(cfg, run_dir, resume=resume is not None, log=lambda s: print(s, flush=True),
-                  status=lambda s: print(s, flush=True))
+        distributed.start(launch)
+    except RuntimeError as e:
+        print(f"error: {e}", file=sys.stderr, flush=True)
+        return distributed.EXIT_LOST_PROCESS
+    run_dir = resume if resume else distributed.broadcast_text(outputs.new_run_dir(cfg))
+    say = (lambda s: print(s, flush=True)) if distributed.is_writer() else (lambda s: None)
+    say(f"run dir: {run_dir}")
+    if launch.multi and not distributed.is_writer():
+        print(f"process {launch.index} of {launch.count} ({launch.source}): stepping its lanes; "
+              f"process 0 prints the progress and writes {run_dir}", flush=True)
+    try:
+        res = run(cfg, run_dir, resume=resume is not None, log=say, status=say)
     except NonFiniteError as e:
         print(f"error: {e}", file=sys.stderr, flush=True)
         return 3
+    except ConfigError as e:  # what needs the devices to check (lanes over several processes)
+        print(f"error: {e}", file=sys.stderr, flush=True)
+        return 2
+    except Exception as e:  # noqa: BLE001 - a lost process, or this one failing: stop them all
+        if launch.multi:
+            distributed.stop(e, run_dir, latest_complete_step(os.path.join(run_dir, "checkpoints")))
+        raise
     t = res.timing
     rate = t["env_steps_per_s"]
-    print(
-        f"done in {_fmt_time(t['wall_time_s'])}; "
+    say(f"done in {_fmt_time(t['wall_time_s'])}; "
         f"{'%.0f' % rate if rate else '?'} env-steps/s over {t['lanes'] if cfg.sweep else cfg.seeds} "
-        f"{'lanes (points × seeds)' if cfg.sweep else 'seeds'}; outputs in {run_dir}",
-        flush=True,
-    )
+        f"{'lanes (points × seeds)' if cfg.sweep else 'seeds'}; outputs in {run_dir}")
     return 0
 
 
