@@ -18,7 +18,10 @@ every process. The run folder must be on a filesystem every process sees.
 
 A process that dies stops the others: the survivors' next gather fails, and :func:`stop` prints one
 line naming the failure and the checkpoint to ``--resume`` from, and ends the process at once (exit
-status 4) instead of waiting for the lost process at JAX's shutdown barrier.
+status 4) instead of waiting for the lost process at JAX's shutdown barrier. One exception: when
+process 0 dies, the JAX coordination service it hosts goes with it and JAX itself ends the others
+within a second ("Terminating process because the JAX distributed service detected fatal errors",
+exit status 134); orbax's checkpoints are unaffected either way.
 """
 
 from __future__ import annotations
@@ -39,8 +42,11 @@ FLAGS = ("--coordinator", "--num-processes", "--process-id")
 ENV = {"--coordinator": "JAX_COORDINATOR_ADDRESS", "--num-processes": "JAX_NUM_PROCESSES",
        "--process-id": "JAX_PROCESS_ID"}
 EXIT_LOST_PROCESS = 4
-# seconds without a heartbeat after which JAX declares a process dead (JAX's default: 100)
-HEARTBEAT_S = 60
+# seconds without a heartbeat after which JAX's coordinator declares a process dead and ends every
+# process from a C++ thread (a multi-line fatal log). Long, so that a lost process is normally noticed
+# first by the survivors' next gather (after every chunk: seconds to minutes), which :func:`stop`
+# reports in one line. JAX's default: 100.
+HEARTBEAT_S = 600
 # seconds a process waits at start-up for all the others to connect (JAX's default)
 CONNECT_TIMEOUT_S = 300
 
