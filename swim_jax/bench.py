@@ -1,4 +1,4 @@
-"""Benchmarks: ``python -m swim_jax.bench {activations,rsqrt,envs,train} [options]``.
+"""Benchmarks: ``python -m swim_jax.bench {activations,rsqrt,envs,train,processes} [options]``.
 
 Every benchmark compiles first, interleaves its candidates in one process, prints a table of
 medians (and min–max), and writes a JSON file under runs/bench/. See docs/BENCHMARKS.md for the
@@ -9,11 +9,12 @@ from __future__ import annotations
 
 import sys
 
-USAGE = """usage: python -m swim_jax.bench {activations,rsqrt,envs,train} [options]
+USAGE = """usage: python -m swim_jax.bench {activations,rsqrt,envs,train,processes} [options]
   activations  elementwise fwd / fwd+bwd, TD3 actor inference (Table III), full TD3 update
   rsqrt        accuracy (every float32 mantissa) and speed of the inverse-square-root variants
   envs         MJX env steps/s vs native MuJoCo
   train        whole training program (env step + update) throughput vs number of lanes/seeds
+  processes    the same lanes as 1 process, 1 process × N host devices, N processes × 1 core
 run a subcommand with --help for its options"""
 
 
@@ -31,6 +32,8 @@ def main(argv: list[str] | None = None) -> int:
         from swim_jax.bench_activations import main_rsqrt as run
     elif command == "train":
         from swim_jax.bench_train import main as run
+    elif command == "processes":
+        from swim_jax.bench_processes import main as run
     elif command == "envs":
         try:
             from envs.bench import main as run
@@ -39,7 +42,7 @@ def main(argv: list[str] | None = None) -> int:
             return 2
     else:
         print(
-            f"swim_jax.bench: unknown benchmark {command!r}; valid: activations, rsqrt, envs, train",
+            f"swim_jax.bench: unknown benchmark {command!r}; valid: activations, rsqrt, envs, train, processes",
             file=sys.stderr,
         )
         return 2

@@ -67,7 +67,9 @@ def num_lanes(cfg: Config) -> int:
 
     Why pad: with a unit vmap axis XLA CPU simplifies the batched MJX physics differently, which
     changes float rounding (~1e-5 after ~10 steps), so seed i alone would drift from seed i in a
-    multi-seed run. Lanes ≥ 2 compute each seed bit-identically (tests/test_train.py)."""
+    multi-seed run. Lanes ≥ 2 compute each seed bit-identically at the same lane count per device
+    (tests/test_train.py); another lane count rounds the updates differently (XLA compiles the
+    batched bias-gradient reductions per shape; ~1e-8 after one update, docs/DISTRIBUTED.md)."""
     real = len(cfgmod.sweep_points(cfg)) * cfg.seeds
     return 2 if real == 1 and cfg.pad_single_seed else real
 

@@ -31,8 +31,14 @@ Modules: swim_jax/programs.py builds the jitted program and its per-lane inputs 
 process), swim_jax/outputs.py writes the run folder's files, and this module runs the loop
 (:func:`run`) and the command line.
 
+Several processes or hosts (``--coordinator host:port --num-processes N --process-id i``, or the
+``JAX_*``/SLURM environment; swim_jax/distributed.py, docs/DISTRIBUTED.md) split the lanes over all
+their devices; process 0 prints and writes the run folder, every process writes its checkpoint part.
+
 Exit status: 0 done; 2 bad command line/config (one line on stderr, nothing written);
-3 NaN/inf detected (message names seed, step and quantity; last good checkpoint kept).
+3 NaN/inf detected (message names seed, step and quantity; last good checkpoint kept);
+4 several processes: another process was lost, or this one could not join (one line; resume
+from the checkpoint it names).
 """
 
 from __future__ import annotations
@@ -168,7 +174,6 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
 
 def _restore(ckpt: Checkpointer, step: int, prog: Programs, lanes: Lanes, evals: _Evaluations):
     """The training state of the checkpoint at ``step``; its evaluations go into ``evals``."""
-    # evals are stored in the compute dtype (exact: every return was computed in it)
     template = (jax.eval_shape(prog.init_fn, *lanes.init_args), evals.saved())
     shardings = None
     if lanes.sharding is not None:  # the lanes straight onto their devices; the evaluations whole on each

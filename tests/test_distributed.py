@@ -163,4 +163,6 @@ def test_a_lost_process_stops_the_other_with_one_line_and_resume_continues(tmp_p
     outs = [p.communicate(timeout=900) for p in procs]
     assert [p.returncode for p in procs] == [0, 0], outs[0][1][-3000:]
     assert f"resumed {run_dir} at step" in outs[0][0]
+    timing = json.load(open(os.path.join(run_dir, "timing.json")))
+    assert timing["chunk_compiles"] == 1 and timing["eval_compiles"] == 1  # restored onto the lanes' devices
     _assert_same_run(run_dir, _reference_dir(ref))

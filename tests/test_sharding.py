@@ -71,5 +71,5 @@ def test_sharded_training_equals_one_device_training(tmp_path):
     )
     out = _python(code, devices=2)
     assert out["lines"][0] == "lanes: 2 lanes over 2 cpu devices" and out["devices"] == 2
-    assert out["compiles"] == 2  # one executable per placement (one device, two devices), none later
+    assert out["compiles"] == 1  # a program per placement, each compiled once (none after the first chunk)
     np.testing.assert_allclose(out["b"], out["a"], rtol=1e-3, atol=1e-3)

@@ -1,0 +1,149 @@
+"""The same lanes as one process or as several: ``python -m swim_jax.bench processes``.
+
+Runs the real ``python -m swim_jax.train`` command of a config (learning phase: one env step and
+one TD3 update per step) with the same lanes in three placements, alternated in ``--rounds``:
+
+    one-process        1 process, 1 device, every core (XLA's threads)
+    host-devices       1 process, ``host_devices=P`` (the lanes split over P host devices)
+    P-processes        P processes × 1 device (``jax.distributed`` on 127.0.0.1), each pinned to
+                       its own core (``os.sched_setaffinity``)
+
+with P = the cores this process may use. Each run's ``timing.json`` gives its env-steps/s (all
+lanes, chunks after the first, so compilation and the warm-up phase are excluded). Reported:
+the median per placement and its ratio to ``one-process``; JSON under ``--out``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import socket
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+PLACEMENTS = ("one-process", "host-devices", "processes")
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="python -m swim_jax.bench processes", description=__doc__.split("\n")[0])
+    p.add_argument("--config", default="cheetah_relu", help="training config (default cheetah_relu)")
+    p.add_argument("--seeds", type=int, default=4, help="lanes (seeds); must divide by the cores (default 4)")
+    p.add_argument("--chunk-steps", type=int, default=1000, help="learning steps per timed chunk (default 1000)")
+    p.add_argument("--chunks", type=int, default=2, help="timed chunks per run, after the first (default 2)")
+    p.add_argument("--rounds", type=int, default=2, help="rounds of the three placements (default 2)")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="extra config override, e.g. --set env.backend=mujoco (repeatable)")
+    p.add_argument("--out", default=os.path.join("runs", "bench"), help="folder of the JSON result")
+    return p
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _pinned(cpu: int):
+    return lambda: os.sched_setaffinity(0, {cpu})
+
+
+def _train(args: list[str], out_dir: str, placement: str, cores: list[int]) -> float:
+    """One training run in ``placement``; its env-steps/s (all lanes) from timing.json."""
+    env = dict(os.environ, JAX_PLATFORMS="cpu", SWIM_JAX_NO_COMPILATION_CACHE="1")
+    cmd = [sys.executable, "-m", "swim_jax.train", *args, f"out_dir={out_dir}"]
+    if placement == "one-process":
+        procs = [subprocess.Popen(cmd, cwd=REPO, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)]
+    elif placement == "host-devices":
+        procs = [subprocess.Popen([*cmd, f"host_devices={len(cores)}"], cwd=REPO, env=env,
+                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)]
+    else:
+        launch = ["--coordinator", f"127.0.0.1:{_free_port()}", "--num-processes", str(len(cores))]
+        procs = [subprocess.Popen([*cmd, *launch, "--process-id", str(i)], cwd=REPO, env=env, preexec_fn=_pinned(cpu),
+                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                 for i, cpu in enumerate(cores)]
+    outs = [p.communicate() for p in procs]
+    for p, (_, err) in zip(procs, outs):
+        if p.returncode != 0:
+            raise RuntimeError(f"{placement} run failed (exit {p.returncode}): {err.strip().splitlines()[-1:]}")
+    run_dir = next(l.split(": ", 1)[1] for l in outs[0][0].splitlines() if l.startswith("run dir: "))
+    with open(os.path.join(run_dir, "timing.json")) as f:
+        return float(json.load(f)["env_steps_per_s"])
+
+
+def measure(config: str, seeds: int, chunk_steps: int, chunks: int, rounds: int, overrides=(), log=print) -> dict:
+    """Env-steps/s of every placement in every round (alternated) and their medians."""
+    cores = sorted(os.sched_getaffinity(0))
+    if len(cores) < 2 or seeds % len(cores):
+        raise ValueError(f"{seeds} lanes must divide over the {len(cores)} cores (and at least 2 cores)")
+    args = [f"config={config}", f"seeds={seeds}", f"eval_freq={chunk_steps}", f"learning_starts={chunk_steps}",
+            f"total_steps={chunk_steps * (chunks + 1)}", "eval_episodes=1", f"progress_steps={chunk_steps}",
+            f"replay_size={chunk_steps * (chunks + 1)}", *overrides]
+    rates = {p: [] for p in PLACEMENTS}
+    with tempfile.TemporaryDirectory(prefix="swim-bench-processes-") as tmp:
+        for r in range(rounds):
+            for placement in PLACEMENTS:
+                rates[placement].append(_train(args, os.path.join(tmp, f"{placement}-{r}"), placement, cores))
+                log(f"round {r + 1}: {placement}: {rates[placement][-1]:.0f} env-steps/s")
+    medians = {p: statistics.median(v) for p, v in rates.items()}
+    return {
+        "benchmark": "processes", "config": config, "seeds": seeds, "overrides": list(overrides),
+        "chunk_steps": chunk_steps, "chunks": chunks, "rounds": rounds, "cores": len(cores),
+        "env_steps_per_s": rates, "median": medians,
+        "ratio_vs_one_process": {p: medians[p] / medians["one-process"] for p in PLACEMENTS},
+        "machine": {"cpu": _cpu_model(), "cpu_count": os.cpu_count(), "python": platform.python_version()},
+        "time": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+    }
+
+
+def _cpu_model() -> str:
+    try:
+        with open("/proc/cpuinfo") as f:
+            info = dict(l.split(":", 1) for l in f if ":" in l)
+        return " ".join(f"{k.strip()}={info[k].strip()}" for k in ("model name\t", "cpu family\t", "model\t\t") if k in info)
+    except OSError:
+        return platform.processor()
+
+
+def markdown(res: dict) -> str:
+    """The result as a Markdown table (medians over the rounds; min–max)."""
+    lines = [f"{res['config']} {' '.join(res['overrides'])}, {res['seeds']} lanes, {res['cores']} cores "
+             f"({res['machine']['cpu']}), {res['chunks']} × {res['chunk_steps']} learning steps per run, "
+             f"{res['rounds']} rounds", "",
+             "| placement | env-steps/s (median) | min–max | vs one process |", "|---|---|---|---|"]
+    names = {"one-process": "1 process × all cores", "host-devices": f"1 process × {res['cores']} host devices",
+             "processes": f"{res['cores']} processes × 1 core"}
+    for p in PLACEMENTS:
+        v = res["env_steps_per_s"][p]
+        lines.append(f"| {names[p]} | {res['median'][p]:.0f} | {min(v):.0f}–{max(v):.0f} | {res['ratio_vs_one_process'][p]:.2f} |")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    try:
+        if min(args.seeds, args.chunk_steps, args.chunks, args.rounds) < 1:
+            raise ValueError("--seeds, --chunk-steps, --chunks and --rounds must be >= 1")
+        res = measure(args.config, args.seeds, args.chunk_steps, args.chunks, args.rounds, tuple(args.set))
+    except ValueError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    except RuntimeError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 1
+    print(markdown(res))
+    os.makedirs(args.out, exist_ok=True)
+    path = os.path.join(args.out, f"processes-{time.strftime('%Y%m%d-%H%M%S', time.gmtime())}.json")
+    with open(path, "w") as f:
+        json.dump(res, f, indent=1)
+    print(f"wrote {path}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
