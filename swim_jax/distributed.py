@@ -47,7 +47,8 @@ EXIT_LOST_PROCESS = 4
 # first by the survivors' next gather (after every chunk: seconds to minutes), which :func:`stop`
 # reports in one line. JAX's default: 100.
 HEARTBEAT_S = 600
-# seconds a process waits at start-up for all the others to connect (JAX's default)
+# seconds a process waits at start-up for all the others to connect (JAX's default); after that
+# JAX ends it from C++ ("Terminating process because the JAX distributed service detected fatal errors")
 CONNECT_TIMEOUT_S = 300
 
 
@@ -107,7 +108,8 @@ def launch_from(flags: dict[str, str], environ=os.environ) -> Launch:
 
 def start(launch: Launch) -> None:
     """Join the other processes (``jax.distributed.initialize``; must run before JAX starts its
-    backends). Nothing to do for a single process. Raises RuntimeError with one line on failure."""
+    backends). Nothing to do for a single process. Raises RuntimeError with one line when JAX
+    raises; a coordinator that stays unreachable for ``CONNECT_TIMEOUT_S`` ends the process in JAX."""
     if not launch.multi:
         return
     try:

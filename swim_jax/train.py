@@ -37,8 +37,7 @@ their devices; process 0 prints and writes the run folder, every process writes 
 
 Exit status: 0 done; 2 bad command line/config (one line on stderr, nothing written);
 3 NaN/inf detected (message names seed, step and quantity; last good checkpoint kept);
-4 several processes: another process was lost, or this one could not join (one line; resume
-from the checkpoint it names).
+4 several processes: another process was lost (one line; resume from the checkpoint it names).
 """
 
 from __future__ import annotations
