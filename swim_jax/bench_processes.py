@@ -53,8 +53,17 @@ def _pinned(cpu: int):
     return lambda: os.sched_setaffinity(0, {cpu})
 
 
-def _train(args: list[str], out_dir: str, placement: str, cores: list[int]) -> float:
-    """One training run in ``placement``; its env-steps/s (all lanes) from timing.json."""
+def train_args(config: str, seeds: int, chunk_steps: int, chunks: int, overrides=()) -> list[str]:
+    """``swim_jax.train`` arguments of a timed run: a warm-up chunk of ``chunk_steps`` random steps
+    (with the compilation, not timed), then ``chunks`` learning chunks (one update per step)."""
+    return [f"config={config}", f"seeds={seeds}", f"eval_freq={chunk_steps}", f"learning_starts={chunk_steps}",
+            f"total_steps={chunk_steps * (chunks + 1)}", "eval_episodes=1", f"progress_steps={chunk_steps}",
+            f"replay_size={chunk_steps * (chunks + 1)}", *overrides]
+
+
+def train_rate(args: list[str], out_dir: str, placement: str, cores: list[int]) -> float:
+    """One ``swim_jax.train args`` run in ``placement`` (one of :data:`PLACEMENTS`; ``cores``: the
+    CPUs, one process pinned to each for "processes"); its env-steps/s (all lanes) from timing.json."""
     env = dict(os.environ, JAX_PLATFORMS="cpu", SWIM_JAX_NO_COMPILATION_CACHE="1")
     cmd = [sys.executable, "-m", "swim_jax.train", *args, f"out_dir={out_dir}"]
     if placement == "one-process":
@@ -81,14 +90,12 @@ def measure(config: str, seeds: int, chunk_steps: int, chunks: int, rounds: int,
     cores = sorted(os.sched_getaffinity(0))
     if len(cores) < 2 or seeds % len(cores):
         raise ValueError(f"{seeds} lanes must divide over the {len(cores)} cores (and at least 2 cores)")
-    args = [f"config={config}", f"seeds={seeds}", f"eval_freq={chunk_steps}", f"learning_starts={chunk_steps}",
-            f"total_steps={chunk_steps * (chunks + 1)}", "eval_episodes=1", f"progress_steps={chunk_steps}",
-            f"replay_size={chunk_steps * (chunks + 1)}", *overrides]
+    args = train_args(config, seeds, chunk_steps, chunks, overrides)
     rates = {p: [] for p in PLACEMENTS}
     with tempfile.TemporaryDirectory(prefix="swim-bench-processes-") as tmp:
         for r in range(rounds):
             for placement in PLACEMENTS:
-                rates[placement].append(_train(args, os.path.join(tmp, f"{placement}-{r}"), placement, cores))
+                rates[placement].append(train_rate(args, os.path.join(tmp, f"{placement}-{r}"), placement, cores))
                 log(f"round {r + 1}: {placement}: {rates[placement][-1]:.0f} env-steps/s")
     medians = {p: statistics.median(v) for p, v in rates.items()}
     return {

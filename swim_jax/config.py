@@ -77,6 +77,10 @@ class Config:
     shard_lanes: bool = True
     # > 0: ask XLA for this many host CPU devices (sets XLA_FLAGS before JAX starts; CPU only)
     host_devices: int = 0
+    # > 1: run as this many jax.distributed processes on this machine, each pinned to its share of
+    # the cores (swim_jax/local_processes.py): each steps its own lanes with single-threaded products,
+    # measured 1.17-1.20x one process on 2 cores (docs/BENCHMARKS.md section 5). CPU; lanes must divide
+    local_processes: int = 0
     # env steps per call of the compiled program; a progress line (env-steps/s, ETA) is printed
     # between calls at most every ~30 s. Must divide eval_freq (else one call per evaluation).
     progress_steps: int = 1000
@@ -307,7 +311,7 @@ def validate(cfg: Config) -> Config:
     for k, v in positive.items():
         if v < 1:
             raise ConfigError(f"{k} must be >= 1, got {v}")
-    for k in ("seed", "first_seed", "learning_starts", "host_devices"):
+    for k in ("seed", "first_seed", "learning_starts", "host_devices", "local_processes"):
         if getattr(cfg, k) < 0:
             raise ConfigError(f"{k} must be >= 0, got {getattr(cfg, k)}")
     if cfg.seed >= 2**32 or cfg.first_seed + cfg.seeds >= 2**31:

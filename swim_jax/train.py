@@ -57,7 +57,7 @@ import yaml
 
 from agents.loop import CHECKED
 from swim_jax import config as cfgmod
-from swim_jax import distributed, learning_log, outputs
+from swim_jax import distributed, learning_log, local_processes, outputs
 from swim_jax.checkpoint import Checkpointer, latest_complete_step
 from swim_jax.config import Config, ConfigError
 from swim_jax.distributed import to_host
@@ -396,17 +396,23 @@ def parse_args(argv: list[str]) -> tuple[Config, str | None]:
 def main(argv: list[str] | None = None, require_sweep: bool = False) -> int:
     """The command line of ``swim_jax.train`` (and, with ``require_sweep``, of ``swim_jax.sweep``);
     with several processes (swim_jax/distributed.py) every process runs it, process 0 prints."""
-    argv = sys.argv[1:] if argv is None else argv
+    command = sys.argv[1:] if argv is None else argv
     try:
-        flags, argv = distributed.pop_flags(argv)
+        flags, argv = distributed.pop_flags(command)
         launch = distributed.launch_from(flags)
         cfg, resume = parse_args(argv)
         if require_sweep and not cfg.sweep:
             raise ConfigError("no sweep axis given; add e.g. sweep.agent.activation.k=[0.25,0.5,1,2] "
                               f"(sweepable keys: {', '.join(cfgmod.sweepable_keys(cfg))})")
+        spawn = cfg.local_processes > 1 and not launch.multi  # (the spawned processes are launch.multi)
+        if spawn:
+            local_processes.check(cfg, num_lanes(cfg))
     except ConfigError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
+    if spawn:
+        return local_processes.spawn("swim_jax.sweep" if require_sweep else "swim_jax.train", command,
+                                     cfg.local_processes)
     if cfg.host_devices and not backends_started():
         set_host_devices(cfg.host_devices)  # before the backends start (joining the processes starts them)
     try:

@@ -14,7 +14,7 @@ import sys
 import numpy as np
 import pytest
 
-from swim_jax import distributed, train
+from swim_jax import distributed, local_processes, train
 from swim_jax.config import ConfigError
 from swim_jax.distributed import Launch, launch_from, pop_flags
 
@@ -166,3 +166,38 @@ def test_a_lost_process_stops_the_other_with_one_line_and_resume_continues(tmp_p
     timing = json.load(open(os.path.join(run_dir, "timing.json")))
     assert timing["chunk_compiles"] == 1 and timing["eval_compiles"] == 1  # restored onto the lanes' devices
     _assert_same_run(run_dir, _reference_dir(ref))
+
+
+# ------------------------------------------------------------------------------------------------
+# local_processes=N: the same, started by one command
+# ------------------------------------------------------------------------------------------------
+
+def test_core_shares_partition_the_usable_cores():
+    cores = sorted(os.sched_getaffinity(0))
+    for n in range(1, len(cores) + 1):
+        shares = local_processes.core_shares(n)
+        assert len(shares) == n and sum(shares, []) == cores
+        assert max(map(len, shares)) - min(map(len, shares)) <= 1
+
+
+@pytest.mark.parametrize("extra, needle", [
+    (["seeds=3", "local_processes=2"], "3 lanes (sweep points × seeds) do not divide over local_processes=2"),
+    (["local_processes=4096"], "local_processes=4096 but this machine lets this process use"),
+])
+def test_local_processes_bad_input_one_line_exit_2_nothing_written(extra, needle, tmp_path, capsys):
+    rc = train.main([*TINY, "total_steps=2000", f"out_dir={tmp_path}/out", *extra])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.count("\n") == 1 and needle in err, err
+    assert not os.path.exists(tmp_path / "out")
+
+
+@pytest.mark.slow
+def test_local_processes_equal_the_same_lanes_on_host_devices(tmp_path):
+    """``local_processes=2`` (one command, 2 pinned processes) == 1 process × 2 host devices, bit for bit."""
+    ref = _start_reference(tmp_path, 2000)
+    r = subprocess.run([sys.executable, "-m", "swim_jax.train", *TINY, "total_steps=2000", "local_processes=2",
+                        f"out_dir={tmp_path / 'local'}"], cwd=REPO, env=_env(tmp_path), capture_output=True,
+                       text=True, timeout=900)
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert "lanes: 4 lanes over 2 cpu devices in 2 processes" in r.stdout and r.stdout.count("run dir: ") == 1
+    _assert_same_run(_run_dir(r.stdout), _reference_dir(ref))

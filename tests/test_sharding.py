@@ -45,13 +45,17 @@ def test_lanes_split_over_two_host_devices():
         "x = place({'w': jnp.arange(8.).reshape(4, 2)}, sh)['w']\n"
         "y = jax.jit(lambda v: v * 2)(x)\n"
         "none, why3 = lane_sharding(3)\n"
+        "from swim_jax.sharding import over_lanes\n"
+        "blocks = jax.jit(over_lanes(lambda v, t: jnp.zeros(v.shape[0]) + v.shape[0] + t, sh, replicated=(1,)))(x, 10.)\n"
         "print(json.dumps({'why': why, 'shards': [list(s.data.shape) for s in x.addressable_shards],\n"
-        "  'devices': sorted(str(s.device) for s in y.addressable_shards), 'y': y.tolist(), 'none3': none is None, 'why3': why3}))\n",
+        "  'devices': sorted(str(s.device) for s in y.addressable_shards), 'y': y.tolist(), 'none3': none is None, 'why3': why3,\n"
+        "  'blocks': blocks.tolist()}))\n",
         devices=2, timeout=300)
     assert out["why"] == "4 lanes over 2 cpu devices"
     assert out["shards"] == [[2, 2], [2, 2]] and len(set(out["devices"])) == 2
     assert out["y"] == [[0, 2], [4, 6], [8, 10], [12, 14]]
     assert out["none3"] and "do not divide over 2 devices" in out["why3"]
+    assert out["blocks"] == [12, 12, 12, 12]  # over_lanes: each device sees its own 2 lanes; t passed whole
 
 
 @pytest.mark.slow

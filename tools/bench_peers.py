@@ -44,6 +44,10 @@ our bench runs' JSON), the CPU model (lscpu), date and command line. Also record
 wall-clock aggregate P·steps / (last end − first start), the overlap of the P timed windows and the
 CPU time per wall second of each process (≈ 1 for a really single-threaded process).
 
+``--our-processes P`` (P > 1) adds a row: ours with the same lanes as P ``jax.distributed`` processes,
+one pinned to each core (the real ``python -m swim_jax.train`` command; env-steps/s of its one timed
+learning chunk of ``--steps`` steps from timing.json; ``swim_jax.bench_processes``).
+
 Bad input (unknown env, a non-positive number, a missing --peer-python or one lacking the peers'
 packages): one line on stderr naming what is valid, exit status 2, nothing written.
 """
@@ -95,6 +99,9 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--steps", default="1000", help="timed learning-phase steps per process / chunk (default 1000)")
     p.add_argument("--rounds", default="3", help="rounds per env, program order rotated (default 3)")
     p.add_argument("--lanes", default="5", help="lanes of our program (default 5)")
+    p.add_argument("--our-processes", default="1",
+                   help="also time ours as this many jax.distributed processes, one per core "
+                        "(swim_jax.bench_processes; --lanes must divide by it; default 1 = not)")
     p.add_argument("--procs", default=str(os.cpu_count() or 1),
                    help="concurrent single-threaded processes per peer (default os.cpu_count())")
     p.add_argument("--warmup", default="25000",
@@ -112,15 +119,19 @@ def validate(args: argparse.Namespace) -> dict:
     if not envs or unknown:
         raise BadInput(f"unknown env {', '.join(unknown) or repr(args.envs)}; valid: {', '.join(CONFIGS)}")
     numbers = {}
-    for name in ("steps", "rounds", "lanes", "procs", "warmup"):
+    for name in ("steps", "rounds", "lanes", "procs", "warmup", "our_processes"):
         text = getattr(args, name)
         try:
             value = int(text)
         except ValueError:
             value = 0
         if value < 1:
-            raise BadInput(f"--{name} {text!r}: expected a positive integer (>= 1)")
+            raise BadInput(f"--{name.replace('_', '-')} {text!r}: expected a positive integer (>= 1)")
         numbers[name] = value
+    P = numbers["our_processes"]
+    if P > 1 and (numbers["lanes"] % P or P > len(os.sched_getaffinity(0))):
+        raise BadInput(f"--our-processes {P}: expected a divisor of --lanes ({numbers['lanes']}) "
+                       f"no larger than the {len(os.sched_getaffinity(0))} usable cores")
     peer_python = args.peer_python
     if not (os.path.isfile(peer_python) and os.access(peer_python, os.X_OK)):
         raise BadInput(f"--peer-python {peer_python!r} is not an executable file; expected a Python with "
@@ -216,6 +227,14 @@ def run_ours(env_id: str, s: dict) -> dict:
         label = (f"swim-jax, {s['lanes']} lanes, {'native MuJoCo' if backend == 'mujoco' else 'MJX (default)'}"
                  + (f", {row['devices']} devices" if row["devices"] > 1 else ""))
         rows[key] = {"env_steps_per_s": row["env_steps_per_s"], "label": label}
+    P = s["our_processes"]
+    if P > 1:  # the same lanes as P processes, one per core (python -m swim_jax.train ... --num-processes P)
+        from swim_jax.bench_processes import train_args, train_rate
+        args = train_args(CONFIGS[env_id], s["lanes"], s["steps"], 1, ("env.backend=mujoco",))
+        with tempfile.TemporaryDirectory(prefix="ours-processes-") as tmp:
+            rate = train_rate(args, tmp, "processes", sorted(os.sched_getaffinity(0))[:P])
+        rows[f"ours-mujoco-{P}proc"] = {"env_steps_per_s": rate,
+                                        "label": f"swim-jax, {s['lanes']} lanes, native MuJoCo, {P} processes × 1 core"}
     return {"program": "ours", "command": cmd, "rows": rows, "bench_json": res}
 
 
