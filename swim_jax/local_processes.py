@@ -58,6 +58,9 @@ def spawn(module: str, argv: list[str], n: int) -> int:
             [sys.executable, "-m", module, *argv, *launch, "--process-id", str(i)],
             stdout=None if i == 0 else subprocess.DEVNULL,
             preexec_fn=lambda share=share: os.sched_setaffinity(0, share)))
-    codes = [p.wait() for p in procs]
+    try:
+        codes = [p.wait() for p in procs]
+    except KeyboardInterrupt:  # the processes got the same Ctrl-C (one process group): let them end
+        codes = [p.wait() for p in procs]
     return next((c for c in codes if c != 0), 0)
 
