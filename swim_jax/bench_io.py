@@ -1,4 +1,6 @@
-"""Read the actor-inference rows (Table III) from ``python -m swim_jax.bench activations`` JSON files.
+"""Benchmark result files: :func:`write_result` (the JSON every ``swim_jax.bench`` command writes, with
+:func:`cpu_model` naming the machine) and the actor-inference rows (Table III) read back from
+``python -m swim_jax.bench activations`` JSON files.
 
 Each file's ``actor_inference`` list holds rows ``{dtype, env, activation, mean_ms, std_ms,
 median_ms, ...}`` (plus ``swim_vs_swish`` summary rows, which are ignored here: the improvement is
@@ -10,7 +12,44 @@ from __future__ import annotations
 import json
 import math
 import os
+import subprocess
+import time
 from dataclasses import dataclass
+
+
+def cpu_model() -> str:
+    """The CPU's model name as lscpu reports it (falling back to /proc/cpuinfo), with its family
+    and model numbers when /proc/cpuinfo has them (e.g. ``AMD EPYC (family 25, model 17)``: the
+    name alone does not tell Zen generations apart)."""
+    name, info = "unknown", {}
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                key, sep, value = line.partition(":")
+                if sep and key.strip() not in info:
+                    info[key.strip()] = value.strip()
+    except OSError:
+        pass
+    try:
+        out = subprocess.run(["lscpu"], capture_output=True, text=True).stdout
+        name = next((l.split(":", 1)[1].strip() for l in out.splitlines() if l.startswith("Model name:")),
+                    info.get("model name", name))
+    except OSError:
+        name = info.get("model name", name)
+    if "cpu family" in info and "model" in info:
+        name += f" (family {info['cpu family']}, model {info['model']})"
+    return name
+
+
+def write_result(out_dir: str, prefix: str, result: dict, stamp: time.struct_time | None = None) -> str:
+    """``result`` as ``<out_dir>/<prefix>-<UTC stamp>.json`` (``stamp``: default now); prints and
+    returns the path."""
+    os.makedirs(out_dir, exist_ok=True)
+    path = os.path.join(out_dir, f"{prefix}-{time.strftime('%Y%m%d-%H%M%S', stamp or time.gmtime())}.json")
+    with open(path, "w") as f:
+        json.dump(result, f, indent=1)
+    print(f"wrote {path}")
+    return path
 
 
 class BenchError(ValueError):

@@ -6,7 +6,7 @@ one TD3 update per step) with the same lanes in three placements, alternated in 
     one-process        1 process, 1 device, every core (XLA's threads)
     host-devices       1 process, ``host_devices=P`` (the lanes split over P host devices)
     P-processes        P processes × 1 device (``jax.distributed`` on 127.0.0.1), each pinned to
-                       its own core (``os.sched_setaffinity``)
+                       its own core: the run's ``local_processes=P`` (swim_jax/local_processes.py)
 
 with P = the cores this process may use. Each run's ``timing.json`` gives its env-steps/s (all
 lanes, chunks after the first, so compilation and the warm-up phase are excluded). Reported:
@@ -19,12 +19,13 @@ import argparse
 import json
 import os
 import platform
-import socket
 import statistics
 import subprocess
 import sys
 import tempfile
 import time
+
+from swim_jax.bench_io import cpu_model, write_result
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PLACEMENTS = ("one-process", "host-devices", "processes")
@@ -43,14 +44,8 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def _pinned(cpu: int):
-    return lambda: os.sched_setaffinity(0, {cpu})
+def _pinned(cpus: list[int]):
+    return lambda: os.sched_setaffinity(0, cpus)
 
 
 def train_args(config: str, seeds: int, chunk_steps: int, chunks: int, overrides=()) -> list[str]:
@@ -62,25 +57,20 @@ def train_args(config: str, seeds: int, chunk_steps: int, chunks: int, overrides
 
 
 def train_rate(args: list[str], out_dir: str, placement: str, cores: list[int]) -> float:
-    """One ``swim_jax.train args`` run in ``placement`` (one of :data:`PLACEMENTS`; ``cores``: the
-    CPUs, one process pinned to each for "processes"); its env-steps/s (all lanes) from timing.json."""
+    """One ``swim_jax.train args`` run in ``placement`` (one of :data:`PLACEMENTS`) on ``cores`` (for
+    "processes": ``local_processes=len(cores)``, one process pinned to each); its env-steps/s (all
+    lanes) from timing.json."""
     env = dict(os.environ, JAX_PLATFORMS="cpu", SWIM_JAX_NO_COMPILATION_CACHE="1")
-    cmd = [sys.executable, "-m", "swim_jax.train", *args, f"out_dir={out_dir}"]
-    if placement == "one-process":
-        procs = [subprocess.Popen(cmd, cwd=REPO, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)]
-    elif placement == "host-devices":
-        procs = [subprocess.Popen([*cmd, f"host_devices={len(cores)}"], cwd=REPO, env=env,
-                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)]
-    else:
-        launch = ["--coordinator", f"127.0.0.1:{_free_port()}", "--num-processes", str(len(cores))]
-        procs = [subprocess.Popen([*cmd, *launch, "--process-id", str(i)], cwd=REPO, env=env, preexec_fn=_pinned(cpu),
-                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-                 for i, cpu in enumerate(cores)]
-    outs = [p.communicate() for p in procs]
-    for p, (_, err) in zip(procs, outs):
-        if p.returncode != 0:
-            raise RuntimeError(f"{placement} run failed (exit {p.returncode}): {err.strip().splitlines()[-1:]}")
-    run_dir = next(l.split(": ", 1)[1] for l in outs[0][0].splitlines() if l.startswith("run dir: "))
+    extra = {"one-process": [], "host-devices": [f"host_devices={len(cores)}"],
+             "processes": [f"local_processes={len(cores)}"]}[placement]
+    cmd = [sys.executable, "-m", "swim_jax.train", *args, *extra, f"out_dir={out_dir}"]
+    pin = _pinned(cores) if placement == "processes" else None  # local_processes splits these cores
+    p = subprocess.Popen(cmd, cwd=REPO, env=env, preexec_fn=pin, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                         text=True)
+    out, err = p.communicate()
+    if p.returncode != 0:
+        raise RuntimeError(f"{placement} run failed (exit {p.returncode}): {err.strip().splitlines()[-1:]}")
+    run_dir = next(l.split(": ", 1)[1] for l in out.splitlines() if l.startswith("run dir: "))
     with open(os.path.join(run_dir, "timing.json")) as f:
         return float(json.load(f)["env_steps_per_s"])
 
@@ -103,18 +93,9 @@ def measure(config: str, seeds: int, chunk_steps: int, chunks: int, rounds: int,
         "chunk_steps": chunk_steps, "chunks": chunks, "rounds": rounds, "cores": len(cores),
         "env_steps_per_s": rates, "median": medians,
         "ratio_vs_one_process": {p: medians[p] / medians["one-process"] for p in PLACEMENTS},
-        "machine": {"cpu": _cpu_model(), "cpu_count": os.cpu_count(), "python": platform.python_version()},
+        "machine": {"cpu": cpu_model(), "cpu_count": os.cpu_count(), "python": platform.python_version()},
         "time": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
     }
-
-
-def _cpu_model() -> str:
-    try:
-        with open("/proc/cpuinfo") as f:
-            info = dict(l.split(":", 1) for l in f if ":" in l)
-        return " ".join(f"{k.strip()}={info[k].strip()}" for k in ("model name\t", "cpu family\t", "model\t\t") if k in info)
-    except OSError:
-        return platform.processor()
 
 
 def markdown(res: dict) -> str:
@@ -144,11 +125,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: {e}", file=sys.stderr)
         return 1
     print(markdown(res))
-    os.makedirs(args.out, exist_ok=True)
-    path = os.path.join(args.out, f"processes-{time.strftime('%Y%m%d-%H%M%S', time.gmtime())}.json")
-    with open(path, "w") as f:
-        json.dump(res, f, indent=1)
-    print(f"wrote {path}")
+    write_result(args.out, "processes", res)
     return 0
 
 

@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import os
 import platform
 import statistics
@@ -40,6 +39,7 @@ import jax.numpy as jnp
 from agents.replay import Transition
 from swim_jax import config as cfgmod
 from swim_jax import programs, roofline, train
+from swim_jax.bench_io import write_result
 from swim_jax.config import ConfigError
 # importing these does not start the JAX backend, so --host-devices (XLA_FLAGS) still applies
 from swim_jax.sharding import lane_sharding, place, set_host_devices
@@ -232,11 +232,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: {e}", file=sys.stderr)
         return 2
     print(markdown(res))
-    os.makedirs(args.out, exist_ok=True)
-    path = os.path.join(args.out, f"train-{time.strftime('%Y%m%d-%H%M%S', time.gmtime())}.json")
-    with open(path, "w") as f:
-        json.dump(res, f, indent=1)
-    print(f"wrote {path}")
+    write_result(args.out, "train", res)
     return 0
 
 

@@ -43,7 +43,8 @@ def core_shares(n: int) -> list[list[int]]:
     return shares
 
 
-def _free_port() -> int:
+def free_port() -> int:
+    """A TCP port on 127.0.0.1 that nothing listens on now (the coordinator's)."""
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
@@ -51,7 +52,7 @@ def _free_port() -> int:
 
 def spawn(module: str, argv: list[str], n: int) -> int:
     """Run ``python -m module argv`` as ``n`` processes (see the module docstring); their exit status."""
-    launch = ["--coordinator", f"127.0.0.1:{_free_port()}", "--num-processes", str(n)]
+    launch = ["--coordinator", f"127.0.0.1:{free_port()}", "--num-processes", str(n)]
     procs = []
     for i, share in enumerate(core_shares(n)):
         procs.append(subprocess.Popen(

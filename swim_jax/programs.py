@@ -162,10 +162,10 @@ def lanes(cfg: Config, prog: Programs, sharding) -> Lanes:
     """The lanes of ``cfg`` for ``prog`` (built for ``sharding``, from :func:`placement`)."""
     count = num_lanes(cfg)
     seed_ids, hparams_np = lane_inputs(cfg, prog.agent.dtype)
-    hparams = place({k: jnp.asarray(v) if sharding is None else v for k, v in hparams_np.items()}, sharding)
+    on_lanes = jnp.asarray if sharding is None else (lambda x: place(x, sharding))  # NumPy → device arrays
+    hparams = {k: on_lanes(v) for k, v in hparams_np.items()}
     sweep_args = (hparams,) if hparams else ()  # no sweep: the functions' 2-/3-argument signatures
-    ids = jnp.asarray(seed_ids) if sharding is None else place(seed_ids, sharding)
-    init_args = (jnp.asarray(cfg.seed, jnp.uint32), ids, *sweep_args)
+    init_args = (jnp.asarray(cfg.seed, jnp.uint32), on_lanes(seed_ids), *sweep_args)
     return Lanes(count, seed_ids, init_args, sweep_args, sharding)
 
 

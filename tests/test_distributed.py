@@ -7,7 +7,6 @@ from __future__ import annotations
 import json
 import os
 import signal
-import socket
 import subprocess
 import sys
 
@@ -70,12 +69,6 @@ def test_cli_bad_launch_flag_exit_2_nothing_written(tmp_path, capsys):
 # real processes on 127.0.0.1
 # ------------------------------------------------------------------------------------------------
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 def _env(tmp_path) -> dict:
     return dict(os.environ, JAX_PLATFORMS="cpu", PYTHONUNBUFFERED="1",
                 JAX_COMPILATION_CACHE_DIR=str(tmp_path / "jax_cache"), JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS="0")
@@ -83,7 +76,7 @@ def _env(tmp_path) -> dict:
 
 def _start(args: list[str], tmp_path, n: int = 2) -> list[subprocess.Popen]:
     """``n`` processes of ``swim_jax.train args`` meeting at a free local port; process 0 last."""
-    launch = ["--coordinator", f"127.0.0.1:{_free_port()}", "--num-processes", str(n)]
+    launch = ["--coordinator", f"127.0.0.1:{local_processes.free_port()}", "--num-processes", str(n)]
     return [subprocess.Popen([sys.executable, "-m", "swim_jax.train", *args, *launch, "--process-id", str(i)],
                              cwd=REPO, env=_env(tmp_path), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
             for i in reversed(range(n))][::-1]

@@ -70,6 +70,8 @@ ROOT = os.path.dirname(TOOLS)
 if TOOLS not in sys.path:
     sys.path.insert(0, TOOLS)
 from bench_pytorch_td3 import CONFIGS  # noqa: E402  env id → our *_relu config
+from swim_jax.bench_io import cpu_model, write_result  # noqa: E402
+from swim_jax.bench_processes import train_args, train_rate  # noqa: E402
 
 WORKER = os.path.join(TOOLS, "peers_td3.py")
 PEERS = ("pytorch", "cleanrl")
@@ -229,32 +231,12 @@ def run_ours(env_id: str, s: dict) -> dict:
         rows[key] = {"env_steps_per_s": row["env_steps_per_s"], "label": label}
     P = s["our_processes"]
     if P > 1:  # the same lanes as P processes, one per core (python -m swim_jax.train ... --num-processes P)
-        from swim_jax.bench_processes import train_args, train_rate
         args = train_args(CONFIGS[env_id], s["lanes"], s["steps"], 1, ("env.backend=mujoco",))
         with tempfile.TemporaryDirectory(prefix="ours-processes-") as tmp:
             rate = train_rate(args, tmp, "processes", sorted(os.sched_getaffinity(0))[:P])
         rows[f"ours-mujoco-{P}proc"] = {"env_steps_per_s": rate,
                                         "label": f"swim-jax, {s['lanes']} lanes, native MuJoCo, {P} processes × 1 core"}
     return {"program": "ours", "command": cmd, "rows": rows, "bench_json": res}
-
-
-def cpu_model() -> str:
-    """The CPU's model name as lscpu reports it (falling back to /proc/cpuinfo)."""
-    try:
-        out = subprocess.run(["lscpu"], capture_output=True, text=True).stdout
-        for line in out.splitlines():
-            if line.startswith("Model name:"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return "unknown"
 
 
 def bench_env(env_id: str, s: dict, log=print) -> dict:
@@ -323,11 +305,7 @@ def main(argv=None) -> int:
         "cpu_model": cpu_model(), "cpu_count": os.cpu_count(), "python": sys.executable,
         "settings": s, "results": results,
     }
-    os.makedirs(s["out"], exist_ok=True)
-    path = os.path.join(s["out"], f"peers-{time.strftime('%Y%m%d-%H%M%S', started)}.json")
-    with open(path, "w") as f:
-        json.dump(doc, f, indent=1)
-    print(f"wrote {path}")
+    write_result(s["out"], "peers", doc, started)
     return 0
 
 
