@@ -9,10 +9,11 @@ Critics: Q_j(s, a) = W₃ʲ σ(W₂ʲ σ(W₁ʲ [s; a] + b₁ʲ) + b₂ʲ) + b�
 layer each time, so a learnable k/beta/alpha is per layer). Dense layers use PyTorch's ``nn.Linear``
 default initialisation (weights and biases U(±1/√fan_in)), as in the original TD3 code.
 
-``matmul_dtype`` (opt-in, e.g. ``jnp.bfloat16``): every Dense layer rounds its input, kernel and bias
-to that type and accumulates the products in the network dtype,
-y = Σᵢ bf16(xᵢ)·bf16(Wᵢⱼ) (summed in float32) + bf16(bⱼ); parameters, optimiser state and the
-activations stay in the network dtype. None (default): plain matmuls in the network dtype.
+``matmul_dtype`` (e.g. ``jnp.bfloat16``): every Dense layer rounds its input, kernel and bias to that
+type and accumulates the products in the network dtype,
+y = Σᵢ bf16(xᵢ)·bf16(Wᵢⱼ) (summed in float32) + bf16(bⱼ), and its derivatives are such products too
+(:func:`low_precision_dot_general`); parameters, optimiser state and the activations stay in the
+network dtype. None (default): plain matmuls in the network dtype.
 """
 
 from __future__ import annotations
@@ -53,7 +54,45 @@ def dense_precision_options(dtype: Any, matmul_dtype: Any = None) -> dict:
     if matmul_dtype is None or jnp.dtype(matmul_dtype) == jnp.dtype(dtype):
         return dict(dtype=dtype, param_dtype=dtype)
     return dict(dtype=matmul_dtype, param_dtype=dtype,
-                dot_general=functools.partial(lax.dot_general, preferred_element_type=dtype))
+                dot_general=functools.partial(low_precision_dot_general, accumulate=jnp.dtype(dtype)))
+
+
+def low_precision_dot_general(lhs, rhs, dimension_numbers, precision=None, preferred_element_type=None,
+                              *, accumulate):
+    """``x @ W`` for a Dense layer whose ``x`` and ``W`` are already rounded to a low-precision type
+    (bfloat16): products summed in ``accumulate`` (float32), output in ``accumulate``. Its
+    derivatives are low-precision matmuls too (as PyTorch's autocast computes them): with the
+    output cotangent g rounded to the operands' type, dx = g·Wᵀ and dW = xᵀ·g, each summed in
+    ``accumulate`` and returned in the operands' type. Only the Dense contraction (last axis of
+    ``x`` with the first of ``W``, no batch axes) is accepted."""
+    dense = (((lhs.ndim - 1,), (0,)), ((), ()))
+    if tuple(map(tuple, dimension_numbers[0])) != dense[0] or any(dimension_numbers[1]):
+        raise ValueError(f"low_precision_dot_general: only x @ W, got dimension_numbers {dimension_numbers}")
+    return _low_precision_matmul(lhs, rhs, accumulate)
+
+
+@functools.partial(jax.custom_vjp, nondiff_argnums=(2,))
+def _low_precision_matmul(x, w, accumulate):
+    return lax.dot_general(x, w, (((x.ndim - 1,), (0,)), ((), ())), preferred_element_type=accumulate)
+
+
+def _low_precision_matmul_fwd(x, w, accumulate):
+    return _low_precision_matmul(x, w, accumulate), (x, w)
+
+
+def _low_precision_matmul_bwd(accumulate, residuals, g):
+    x, w = residuals
+    g = g.astype(x.dtype)
+    dx = lax.dot_general(g, w, (((g.ndim - 1,), (1,)), ((), ())), preferred_element_type=accumulate)
+    # dW = xᵀ·g as a plain (in × rows)·(rows × out) product on an explicitly transposed x: XLA
+    # (jaxlib 0.10) would fold the transpose into the dot, and its CPU backend has no bf16 kernel
+    # for that form outside its YNNPACK fusions
+    x_t = lax.optimization_barrier(x.reshape(-1, x.shape[-1]).T)
+    dw = lax.dot_general(x_t, g.reshape(-1, g.shape[-1]), (((1,), (0,)), ((), ())), preferred_element_type=accumulate)
+    return dx.astype(x.dtype), dw.astype(w.dtype)
+
+
+_low_precision_matmul.defvjp(_low_precision_matmul_fwd, _low_precision_matmul_bwd)
 
 
 @dataclasses.dataclass(frozen=True)

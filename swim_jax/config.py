@@ -28,7 +28,7 @@ from swim_jax import tensorboard_log
 CONFIG_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "configs")
 PRECISIONS = ("float32", "float64")
 MATMUL_PRECISIONS = ("highest", "high", "default")
-MATMUL_DTYPES = ("auto", "bfloat16")
+MATMUL_DTYPES = ("auto", "full", "bfloat16")
 
 
 class ConfigError(ValueError):
@@ -70,8 +70,10 @@ class Config:
     # float32 matmul precision (jax.default_matmul_precision): "highest" = true float32 everywhere;
     # "default" lets NVIDIA GPUs use TF32 (~1e-3 relative; faster for big matmuls, not comparable with CPU)
     matmul_precision: str = "highest"
-    # network matmul inputs: "auto" = the run's precision; "bfloat16" = inputs, weights and biases
-    # rounded to bfloat16, products accumulated in float32 (opt-in; parameters stay in precision)
+    # network matmuls: "bfloat16" = inputs, weights, biases and the products' derivatives rounded to
+    # bfloat16, sums in float32 (parameters, Adam state, activations stay in precision); "full" =
+    # in the run's precision; "auto" = bfloat16 for float32 runs on a CPU with bfloat16 dot
+    # instructions (AVX-512 BF16 / AMX; swim_jax/hardware.py), else full (programs.matmul_dtype)
     matmul_dtype: str = "auto"
     # lanes (seeds × sweep points) split over devices when several exist and lanes divide evenly
     shard_lanes: bool = True

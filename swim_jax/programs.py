@@ -22,6 +22,7 @@ import envs
 from agents import loop
 from agents.td3 import TD3
 from swim_jax import config as cfgmod
+from swim_jax import hardware
 from swim_jax.config import Config
 from swim_jax.sharding import lane_sharding, over_lanes, place
 
@@ -42,9 +43,28 @@ def build(cfg: Config):
         tuple(float(x) for x in np.asarray(env.action_low)),
         tuple(float(x) for x in np.asarray(env.action_high)),
         dtype=dtype,
-        matmul_dtype=jnp.bfloat16 if cfg.matmul_dtype == "bfloat16" else None,
+        matmul_dtype=matmul_dtype(cfg)[0],
     )
     return env, eval_env, agent
+
+
+# matmul_dtype=auto picks bfloat16 on CPUs that multiply it natively: learning parity with float32
+# measured on HalfCheetah-v5 (docs/BENCHMARKS.md section 6)
+AUTO_BFLOAT16 = True
+
+
+def matmul_dtype(cfg: Config, cpu_flags: frozenset[str] | None = None) -> tuple[object, str]:
+    """The Dense layers' matmul type (None = the run's precision, or ``jnp.bfloat16``) and why, in
+    words for the start-up line. ``bfloat16``: always; ``full``: never; ``auto``: bfloat16 when the
+    run is float32 on a CPU backend whose CPU has bfloat16 dot instructions (AVX-512 BF16 or AMX in
+    ``cpu_flags``, default this machine's: ``swim_jax.hardware``), else the run's precision."""
+    if cfg.matmul_dtype == "bfloat16":
+        return jnp.bfloat16, "bfloat16 matmuls (matmul_dtype=bfloat16)"
+    flag = hardware.native_bf16(cpu_flags)
+    if (cfg.matmul_dtype == "auto" and AUTO_BFLOAT16 and flag and cfg.precision == "float32"
+            and jax.default_backend() == "cpu"):
+        return jnp.bfloat16, f"bfloat16 matmuls (matmul_dtype=auto: this CPU has {flag}; full: float32)"
+    return None, f"{cfg.precision} matmuls"
 
 
 @dataclass
@@ -93,8 +113,10 @@ def lane_inputs(cfg: Config, dtype) -> tuple[np.ndarray, dict[str, np.ndarray]]:
 
 def chunk_compiler_options(cfg: Config) -> dict:
     """XLA options of the training chunk: on a CPU backend, XLA's YNNPACK library fusions are
-    switched off unless ``cfg.xla_cpu_ynn_fusions`` (measured faster without them; config.py)."""
-    if cfg.xla_cpu_ynn_fusions or jax.default_backend() != "cpu":
+    switched off unless ``cfg.xla_cpu_ynn_fusions`` (within noise for float32; config.py) or the
+    matmuls are bfloat16 (XLA's CPU backend multiplies bfloat16 natively only inside those fusions;
+    elsewhere it converts the operands to float32 first)."""
+    if cfg.xla_cpu_ynn_fusions or matmul_dtype(cfg)[0] is not None or jax.default_backend() != "cpu":
         return {}
     return {"xla_cpu_experimental_ynn_fusion_type": ""}
 

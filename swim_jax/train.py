@@ -61,8 +61,8 @@ from swim_jax import distributed, learning_log, local_processes, outputs
 from swim_jax.checkpoint import Checkpointer, latest_complete_step
 from swim_jax.config import Config, ConfigError
 from swim_jax.distributed import to_host
-from swim_jax.programs import (Lanes, Programs, backends_started, lanes as program_lanes, num_lanes, placement,
-                               programs, use_compilation_cache)
+from swim_jax.programs import (Lanes, Programs, backends_started, lanes as program_lanes, matmul_dtype, num_lanes,
+                               placement, programs, use_compilation_cache)
 from swim_jax.sharding import place, set_host_devices
 
 USAGE = (
@@ -125,7 +125,7 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
     write the evaluations and ``log`` a progress line; finally the final policy and timing."""
     clock = _Clock(time.time())
     say(f"building {cfg.env.id} ({cfg.env.backend} physics, {cfg.precision}) and the TD3 program for "
-        f"{num_lanes(cfg)} lanes")
+        f"{num_lanes(cfg)} lanes; {matmul_dtype(cfg)[1]}")
     sharding = placement(cfg, log)
     prog = programs(cfg, sharding)
     lanes = program_lanes(cfg, prog, sharding)
@@ -161,7 +161,7 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
         folder.evaluations(evals.returns, c + 2)
         clock.iteration_done(time.time() - t0)
         log(_progress_line(cfg, folder.points, step, evals.returns[c + 1, : folder.real_lanes], dt, c == start,
-                           clock.elapsed(), clock.eta(n_chunks - c - 1), metrics))
+                           clock.elapsed(), clock.eta(n_chunks - c - 1), metrics, prog.agent.matmul_dtype is not None))
     final_actor = outputs.flat_params(jax.tree.map(lambda x: x[: folder.real_lanes], to_host(states.agent.actor)))
     folder.final_policy(final_actor)
     timing = _timing(cfg, prog, lanes, evals, clock, start if resume else None)
@@ -270,6 +270,7 @@ def _timing(cfg: Config, prog: Programs, lanes: Lanes, evals: _Evaluations, cloc
         "platform": jax.devices()[0].platform,
         "devices": jax.device_count() if lanes.sharding is not None else 1,
         "processes": jax.process_count(),
+        "matmul_dtype": jnp.dtype(prog.agent.matmul_dtype or prog.agent.dtype).name,
     }
 
 
@@ -327,16 +328,17 @@ def train_chunk(cfg: Config, chunk_fn, states, c: int, sweep_args, sharding, say
 
 
 def _progress_line(cfg: Config, points, step: int, ev: np.ndarray, dt: float, first: bool,
-                   elapsed: float, eta: float, chunk_metrics: dict | None = None) -> str:
-    """One line per chunk: step, throughput, eval mean ± std over seeds (per point for sweeps),
-    and, once updates run, the chunk's critic loss and Q₁ averaged over the lanes."""
+                   elapsed: float, eta: float, chunk_metrics: dict | None = None, bf16: bool = False) -> str:
+    """One line per chunk: step, throughput (", bf16 matmuls" when ``bf16``), eval mean ± std over
+    seeds (per point for sweeps), and, once updates run, the chunk's critic loss and Q₁ averaged
+    over the lanes."""
     S, P = cfg.seeds, len(points)
     means = ev.mean(axis=1)  # [P·S] each lane's mean episode return
     rate = cfg.eval_freq * P * S / dt
     unit = "lane" if cfg.sweep else "seed"
     over = f"{P} points × {S} seeds" if cfg.sweep else f"{S} seeds"
     line = (f"step {step:>8d}/{cfg.total_steps} | {rate:8.0f} env-steps/s ({rate / (P * S):.0f}/{unit}"
-            f"{', incl. compile' if first else ''}) | eval {means.mean():9.2f} ± {means.std():7.2f} over {over}")
+            f"{', incl. compile' if first else ''}{', bf16 matmuls' if bf16 else ''}) | eval {means.mean():9.2f} ± {means.std():7.2f} over {over}")
     if cfg.sweep and P <= 8:
         point_means = means.reshape(P, S).mean(axis=1)
         line += " [" + ", ".join(f"{cfgmod.point_label(pt)}: {m:.0f}" for pt, m in zip(points, point_means)) + "]"

@@ -124,7 +124,7 @@ def test_env_benchmark_rejects_an_unknown_backend_with_exit_2(tmp_path, capsys):
 
 @pytest.mark.parametrize("args,needle", [(["--lanes", "0,2"], "positive integers"), (["--lanes", "x"], "positive integers"),
                                          (["--config", "nope"], "valid configs"), (["--repeats", "0"], ">= 1"),
-                                         (["--variant", "matmul_dtype=float16"], "valid: auto, bfloat16")])
+                                         (["--variant", "matmul_dtype=float16"], "valid: auto, full, bfloat16")])
 def test_train_benchmark_bad_input_exit_2_nothing_written(tmp_path, capsys, args, needle):
     from swim_jax.bench_train import main as bench_train_main
 

@@ -363,7 +363,7 @@ def test_nan_detection_names_seed_step_and_quantity(vmapped):
         (["config=walker_swim", "agent.activation.name=gelu"], "valid: elu, hard_swish, mish, relu, swim, swish"),
         (["config=walker_swim", "precision=float16"], "valid: float32, float64"),
         (["config=walker_swim", "matmul_precision=tf32"], "valid: highest, high, default"),
-        (["config=walker_swim", "matmul_dtype=float16"], "valid: auto, bfloat16"),
+        (["config=walker_swim", "matmul_dtype=float16"], "valid: auto, full, bfloat16"),
         (["config=walker_swim", "env.backend=bullet"], "unknown env.backend 'bullet'; valid: mjx, mujoco"),
         (["config=walker_swim", "total_steps=12345"], "multiple of eval_freq"),
         (["config=walker_swim", "bogus"], "expected config=<name>"),
@@ -465,12 +465,12 @@ def test_resume_after_sigkill_matches_uninterrupted_run(tmp_path):
 def test_programs_are_rebuilt_for_each_matmul_setting():
     """The program cache keys on every field that changes the program: a bfloat16-matmul config
     must not get the cached float32 program (building only, no compile)."""
-    plain = programs(tiny("seeds=2"))
+    plain = programs(tiny("seeds=2", "matmul_dtype=full"))
     bf16 = programs(tiny("seeds=2", "matmul_dtype=bfloat16"))
     assert bf16 is not plain and plain.agent.matmul_dtype is None
     assert jnp.dtype(bf16.agent.matmul_dtype) == jnp.bfloat16
-    assert programs(tiny("seeds=2", "matmul_precision=default")) is not plain
-    assert programs(tiny("seeds=5")) is plain  # seeds only change the lane shapes
+    assert programs(tiny("seeds=2", "matmul_dtype=full", "matmul_precision=default")) is not plain
+    assert programs(tiny("seeds=5", "matmul_dtype=full")) is plain  # seeds only change the lane shapes
 
 
 def test_float64_precision_builds_everything_in_float64(restore_x64):
@@ -513,14 +513,50 @@ def test_divergence_stops_with_message_and_keeps_last_good_checkpoint(tmp_path):
 
 
 def test_ynn_fusions_are_off_in_the_cpu_training_chunk_unless_asked_for():
-    """The chunk's compiler options reach XLA: YNNPACK fusions only with xla_cpu_ynn_fusions=true."""
+    """The chunk's compiler options reach XLA: with float32 matmuls, YNNPACK fusions only with
+    xla_cpu_ynn_fusions=true."""
     def compiled_text(cfg):
         prog = programs(cfg)
         states = prog.init_fn(jnp.asarray(0, jnp.uint32), jnp.arange(1, dtype=jnp.int32))
         return prog.chunk_fn.lower(states, jnp.asarray(0, jnp.int32), None).compile().as_text()
 
-    assert "__ynn_fusion" not in compiled_text(tiny("seeds=1", "pad_single_seed=false"))
-    assert "__ynn_fusion" in compiled_text(tiny("seeds=1", "pad_single_seed=false", "xla_cpu_ynn_fusions=true"))
+    full = ("seeds=1", "pad_single_seed=false", "matmul_dtype=full")
+    assert "__ynn_fusion" not in compiled_text(tiny(*full))
+    assert "__ynn_fusion" in compiled_text(tiny(*full, "xla_cpu_ynn_fusions=true"))
+
+
+def test_matmul_dtype_auto_is_bfloat16_only_for_float32_on_a_cpu_with_bfloat16_dot_instructions():
+    """matmul_dtype: bfloat16 always, full never, auto when the CPU flags name AVX-512 BF16 or AMX
+    and the run is float32 (float64 runs keep float64 products)."""
+    from swim_jax import hardware
+    from swim_jax.programs import matmul_dtype
+
+    zen4, old = frozenset({"avx2", "avx512f", "avx512_bf16"}), frozenset({"avx2", "avx512f"})
+    assert hardware.native_bf16(zen4) == "avx512_bf16"
+    assert hardware.native_bf16(frozenset({"amx_bf16", "avx512_bf16"})) == "amx_bf16"
+    assert hardware.native_bf16(old) is None
+    assert matmul_dtype(tiny("matmul_dtype=auto"), zen4)[0] == jnp.bfloat16
+    assert "avx512_bf16" in matmul_dtype(tiny("matmul_dtype=auto"), zen4)[1]
+    assert matmul_dtype(tiny("matmul_dtype=auto"), old)[0] is None
+    assert matmul_dtype(tiny("matmul_dtype=full"), zen4)[0] is None
+    assert matmul_dtype(tiny("matmul_dtype=bfloat16"), old)[0] == jnp.bfloat16
+    assert matmul_dtype(tiny("matmul_dtype=auto", "precision=float64"), zen4)[0] is None
+    with open("/proc/cpuinfo") as f:  # this machine's flags are the kernel's
+        assert hardware.native_bf16() == hardware.native_bf16(frozenset(
+            next(l for l in f if l.startswith("flags")).split(":", 1)[1].split()))
+
+
+def test_bfloat16_chunk_keeps_ynn_fusions_and_runs():
+    """matmul_dtype=bfloat16 keeps XLA's YNNPACK fusions (its CPU backend multiplies bfloat16
+    natively only there) and the chunk runs: XLA's plain dot has no bf16 x bf16 -> f32 kernel, so a
+    weight-gradient product left outside the fusions would fail at run time (networks.py)."""
+    cfg = tiny("seeds=2", "matmul_dtype=bfloat16")
+    prog = programs(cfg)
+    states = prog.init_fn(jnp.asarray(0, jnp.uint32), jnp.arange(2, dtype=jnp.int32))
+    compiled = prog.chunk_fn.lower(states, jnp.asarray(0, jnp.int32)).compile()
+    assert "__ynn_fusion" in compiled.as_text()
+    states, metrics = prog.chunk_fn(states, jnp.asarray(cfg.learning_starts, jnp.int32))
+    assert np.all(np.isfinite(np.asarray(jax.tree.leaves(states.agent.critic)[0])))
 
 
 def test_help_prints_usage_on_stdout_and_exits_0():

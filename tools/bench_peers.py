@@ -32,8 +32,10 @@ both run with ``--peer-python`` (a Python that has torch, jax, flax, optax, gymn
 Ours is ONE process as our users run it (JAX's default threading, all cores): the project's own
 whole-program benchmark ``python -m swim_jax.bench train`` for the env's ``*_relu`` config with
 ``--lanes`` lanes (seeds of one vmapped program, every step an update), ``--chunk-steps`` = ``--steps``,
-timed for both env backends (MJX, the default, and ``env.backend=mujoco``); its env-steps/s count
-all lanes. Ours runs with this script's own Python (``sys.executable``).
+timed for both env backends (MJX and ``env.backend=mujoco``) with float32 matmuls
+(``matmul_dtype=full``) and for native physics with bfloat16 matmuls (``matmul_dtype=bfloat16``, what
+``auto`` picks on a CPU with AVX-512 BF16 or AMX); its env-steps/s count all lanes. Ours runs with
+this script's own Python (``sys.executable``).
 
 For each env, each of ``--rounds`` rounds runs (a) the pytorch peer, (b) the cleanrl peer, (c) ours,
 one after the other, the order rotated from round to round so slow drifts of the machine (heat,
@@ -46,7 +48,7 @@ CPU time per wall second of each process (≈ 1 for a really single-threaded pro
 
 ``--our-processes P`` (P > 1) adds a row: ours with the same lanes as P ``jax.distributed`` processes,
 one pinned to each core (the real ``python -m swim_jax.train`` command; env-steps/s of its one timed
-learning chunk of ``--steps`` steps from timing.json; ``swim_jax.bench_processes``).
+learning chunk of ``--steps`` steps from timing.json; ``swim_jax.bench_processes``), float32 and bfloat16.
 
 Bad input (unknown env, a non-positive number, a missing --peer-python or one lacking the peers'
 packages): one line on stderr naming what is valid, exit status 2, nothing written.
@@ -79,6 +81,7 @@ PROGRAMS = ("pytorch", "cleanrl", "ours")
 LABELS = {"pytorch": "PyTorch TD3 (Fujimoto, original)", "cleanrl": "cleanrl-style JAX TD3"}
 PEER_MODULES = ("torch", "jax", "flax", "optax", "gymnasium", "mujoco")
 SINGLE_THREAD_ENV = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
+BF16 = "matmul_dtype=bfloat16"  # our bfloat16 rows (float32 rows: matmul_dtype=full)
 
 
 class BadInput(Exception):
@@ -203,16 +206,19 @@ def run_peer(impl: str, env_id: str, s: dict) -> dict:
 
 
 def run_ours(env_id: str, s: dict) -> dict:
-    """Run our whole-program benchmark once (both env backends); one row per backend.
+    """Run our whole-program benchmark once: MJX and native physics with float32 matmuls, native
+    with bfloat16 matmuls; one row each.
 
     ``python -m swim_jax.bench train --config <env>_relu --lanes L --chunk-steps N --repeats 1
-    --variant env.backend=mujoco --out <tmp>`` with this script's Python, JAX's default threading;
-    returns {key: {"env_steps_per_s", "label"}} and the JSON that benchmark wrote.
+    --set matmul_dtype=full --variant env.backend=mujoco --variant env.backend=mujoco,matmul_dtype=bfloat16
+    --out <tmp>`` with this script's Python, JAX's default threading; returns {key: {"env_steps_per_s",
+    "label"}} and the JSON that benchmark wrote.
     """
     with tempfile.TemporaryDirectory(prefix="ours-") as tmp:
         cmd = [sys.executable, "-m", "swim_jax.bench", "train", "--config", CONFIGS[env_id],
                "--lanes", str(s["lanes"]), "--chunk-steps", str(s["steps"]), "--repeats", "1",
-               "--variant", "env.backend=mujoco", "--no-roofline", "--out", tmp]
+               "--set", "matmul_dtype=full", "--variant", "env.backend=mujoco",
+               "--variant", f"env.backend=mujoco,{BF16}", "--no-roofline", "--out", tmp]
         proc = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
         files = sorted(glob.glob(os.path.join(tmp, "train-*.json")))
         if proc.returncode != 0 or not files:
@@ -225,17 +231,20 @@ def run_ours(env_id: str, s: dict) -> dict:
         if row["lanes"] != s["lanes"]:
             continue
         backend = "mujoco" if "env.backend=mujoco" in (row.get("variant") or "") else "mjx"
-        key = f"ours-{backend}" + (f"-{row['devices']}dev" if row["devices"] > 1 else "")
-        label = (f"swim-jax, {s['lanes']} lanes, {'native MuJoCo' if backend == 'mujoco' else 'MJX (default)'}"
-                 + (f", {row['devices']} devices" if row["devices"] > 1 else ""))
+        bf16 = BF16 in (row.get("variant") or "")
+        key = f"ours-{backend}" + ("-bf16" if bf16 else "") + (f"-{row['devices']}dev" if row["devices"] > 1 else "")
+        label = (f"swim-jax, {s['lanes']} lanes, {'native MuJoCo' if backend == 'mujoco' else 'MJX'}"
+                 + (", bfloat16 matmuls" if bf16 else ", float32") + (f", {row['devices']} devices" if row["devices"] > 1 else ""))
         rows[key] = {"env_steps_per_s": row["env_steps_per_s"], "label": label}
     P = s["our_processes"]
     if P > 1:  # the same lanes as P processes, one per core (python -m swim_jax.train ... --num-processes P)
-        args = train_args(CONFIGS[env_id], s["lanes"], s["steps"], 1, ("env.backend=mujoco",))
-        with tempfile.TemporaryDirectory(prefix="ours-processes-") as tmp:
-            rate = train_rate(args, tmp, "processes", sorted(os.sched_getaffinity(0))[:P])
-        rows[f"ours-mujoco-{P}proc"] = {"env_steps_per_s": rate,
-                                        "label": f"swim-jax, {s['lanes']} lanes, native MuJoCo, {P} processes × 1 core"}
+        for dtype, suffix in (("matmul_dtype=full", ""), (BF16, "-bf16")):
+            args = train_args(CONFIGS[env_id], s["lanes"], s["steps"], 1, ("env.backend=mujoco", dtype))
+            with tempfile.TemporaryDirectory(prefix="ours-processes-") as tmp:
+                rate = train_rate(args, tmp, "processes", sorted(os.sched_getaffinity(0))[:P])
+            rows[f"ours-mujoco{suffix}-{P}proc"] = {
+                "env_steps_per_s": rate, "label": f"swim-jax, {s['lanes']} lanes, native MuJoCo, "
+                                                  f"{'bfloat16 matmuls' if suffix else 'float32'}, {P} processes × 1 core"}
     return {"program": "ours", "command": cmd, "rows": rows, "bench_json": res}
 
 
