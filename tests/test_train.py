@@ -26,7 +26,7 @@ from tensorboardX.proto.event_pb2 import Event, SessionLog
 from agents import loop
 from swim_jax import config as cfgmod
 from swim_jax import learning_log, report, tensorboard_log, train
-from swim_jax.programs import programs
+from swim_jax.programs import matmul_dtype, programs
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TINY = [
@@ -94,6 +94,10 @@ def test_outputs_and_progress_lines(vmapped):
     csv = open(os.path.join(d, "evaluations.csv")).read().splitlines()
     assert csv[0] == "step,seed_0,seed_1,mean,std" and csv[-1].startswith("4000,")
     assert len(vmapped.lines) == 4 and all("env-steps/s" in l and "ETA" in l and "±" in l for l in vmapped.lines)
+    # the matmul type matmul_dtype=auto resolved to on this machine: in timing.json and every progress line
+    bf16 = matmul_dtype(tiny(*VMAPPED))[0] is not None
+    assert vmapped.timing["matmul_dtype"] == ("bfloat16" if bf16 else "float32")
+    assert all(("bf16 matmuls" in line) == bf16 for line in vmapped.lines)
     # keep_checkpoints=3 of the 4 chunk checkpoints
     assert sorted(os.listdir(os.path.join(d, "checkpoints"))) == ["2000", "3000", "4000"]
     # the resolved config round-trips
@@ -529,7 +533,6 @@ def test_matmul_dtype_auto_is_bfloat16_only_for_float32_on_a_cpu_with_bfloat16_d
     """matmul_dtype: bfloat16 always, full never, auto when the CPU flags name AVX-512 BF16 or AMX
     and the run is float32 (float64 runs keep float64 products)."""
     from swim_jax import hardware
-    from swim_jax.programs import matmul_dtype
 
     zen4, old = frozenset({"avx2", "avx512f", "avx512_bf16"}), frozenset({"avx2", "avx512f"})
     assert hardware.native_bf16(zen4) == "avx512_bf16"
