@@ -16,20 +16,14 @@ import subprocess
 import time
 from dataclasses import dataclass
 
+from swim_jax import hardware
+
 
 def cpu_model() -> str:
     """The CPU's model name as lscpu reports it (falling back to /proc/cpuinfo), with its family
     and model numbers when /proc/cpuinfo has them (e.g. ``AMD EPYC (family 25, model 17)``: the
     name alone does not tell Zen generations apart)."""
-    name, info = "unknown", {}
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                key, sep, value = line.partition(":")
-                if sep and key.strip() not in info:
-                    info[key.strip()] = value.strip()
-    except OSError:
-        pass
+    name, info = "unknown", hardware.cpuinfo()
     try:
         out = subprocess.run(["lscpu"], capture_output=True, text=True).stdout
         name = next((l.split(":", 1)[1].strip() for l in out.splitlines() if l.startswith("Model name:")),

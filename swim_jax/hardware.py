@@ -1,4 +1,4 @@
-"""What this machine's CPU multiplies natively, from the kernel's CPU flags (/proc/cpuinfo)."""
+"""What this machine's CPU is and multiplies natively, from the kernel's /proc/cpuinfo."""
 
 from __future__ import annotations
 
@@ -9,17 +9,24 @@ BF16_FLAGS = ("amx_bf16", "avx512_bf16")
 
 
 @functools.cache
-def cpu_flags() -> frozenset[str]:
-    """The first processor's ``flags`` in /proc/cpuinfo (empty where there is no such file)."""
+def cpuinfo() -> dict[str, str]:
+    """The first processor's fields in /proc/cpuinfo (``model name``, ``cpu family``, ``flags``, ...);
+    empty where there is no such file."""
+    info = {}
     try:
         with open("/proc/cpuinfo") as f:
             for line in f:
                 key, sep, value = line.partition(":")
-                if sep and key.strip() == "flags":
-                    return frozenset(value.split())
+                if sep and key.strip() not in info:
+                    info[key.strip()] = value.strip()
     except OSError:
         pass
-    return frozenset()
+    return info
+
+
+def cpu_flags() -> frozenset[str]:
+    """The first processor's ``flags`` (empty where /proc/cpuinfo has none)."""
+    return frozenset(cpuinfo().get("flags", "").split())
 
 
 def native_bf16(flags: frozenset[str] | None = None) -> str | None:

@@ -48,21 +48,16 @@ def build(cfg: Config):
     return env, eval_env, agent
 
 
-# matmul_dtype=auto picks bfloat16 on CPUs that multiply it natively: learning parity with float32
-# measured on HalfCheetah-v5 (docs/BENCHMARKS.md section 6)
-AUTO_BFLOAT16 = True
-
-
 def matmul_dtype(cfg: Config, cpu_flags: frozenset[str] | None = None) -> tuple[object, str]:
     """The Dense layers' matmul type (None = the run's precision, or ``jnp.bfloat16``) and why, in
     words for the start-up line. ``bfloat16``: always; ``full``: never; ``auto``: bfloat16 when the
     run is float32 on a CPU backend whose CPU has bfloat16 dot instructions (AVX-512 BF16 or AMX in
-    ``cpu_flags``, default this machine's: ``swim_jax.hardware``), else the run's precision."""
+    ``cpu_flags``, default this machine's: ``swim_jax.hardware``), else the run's precision; auto's
+    choice rests on learning parity with float32 on HalfCheetah-v5 (docs/BENCHMARKS.md section 6)."""
     if cfg.matmul_dtype == "bfloat16":
         return jnp.bfloat16, "bfloat16 matmuls (matmul_dtype=bfloat16)"
     flag = hardware.native_bf16(cpu_flags)
-    if (cfg.matmul_dtype == "auto" and AUTO_BFLOAT16 and flag and cfg.precision == "float32"
-            and jax.default_backend() == "cpu"):
+    if cfg.matmul_dtype == "auto" and flag and cfg.precision == "float32" and jax.default_backend() == "cpu":
         return jnp.bfloat16, f"bfloat16 matmuls (matmul_dtype=auto: this CPU has {flag}; full: float32)"
     return None, f"{cfg.precision} matmuls"
 
