@@ -12,8 +12,9 @@ deps.check_versions()
 from envs import mjx_compat  # noqa: E402
 from envs.autoreset import step_autoreset, step_autoreset_lanes
 from envs.base import BACKENDS, LocomotionEnv, State
+from envs.native import CALLS as NATIVE_CALLS
 from envs.registry import ENV_IDS, make
 
 mjx_compat.install()
 
-__all__ = ["BACKENDS", "ENV_IDS", "LocomotionEnv", "State", "make", "step_autoreset", "step_autoreset_lanes"]
+__all__ = ["BACKENDS", "ENV_IDS", "NATIVE_CALLS", "LocomotionEnv", "State", "make", "step_autoreset", "step_autoreset_lanes"]

@@ -41,7 +41,7 @@ DEFAULT_LS_ITERATIONS = 16
 DEFAULT_MAX_EPISODE_STEPS = 1000
 
 OPTION_NAMES = ("max_episode_steps", "solver_iterations", "ls_iterations", "solver_tolerance",
-                "solver_impl", "dtype", "backend")
+                "solver_impl", "dtype", "backend", "native_call")
 # physics backends: "mjx" (JAX, batched on any device; the default) or "mujoco" (MuJoCo C on the
 # host through one callback per step, envs/native.py; fastest on a CPU at few lanes)
 BACKENDS = ("mjx", "mujoco")
@@ -140,7 +140,8 @@ class LocomotionEnv(brax_base.Env):
                  solver_tolerance: Optional[float] = None,
                  solver_impl: str = "c",
                  dtype: Any = None,
-                 backend: str = "mjx"):
+                 backend: str = "mjx",
+                 native_call: str = "auto"):
         dt_now = float_dtype()
         if dtype is not None and jnp.dtype(dtype) != dt_now:
             raise ValueError(
@@ -160,7 +161,8 @@ class LocomotionEnv(brax_base.Env):
         self.sys = mjx.put_model(self.mj_model)
         self._native = None
         if backend == "mujoco":
-            self._native = NativePhysics(self.mj_model, self.frame_skip, self.needs_post_constraint, dt_now)
+            self._native = NativePhysics(self.mj_model, self.frame_skip, self.needs_post_constraint, dt_now,
+                                         call=native_call)
             self._data0 = self._native.initial_data()
         else:
             self._data0 = mjx.make_data(self.sys)

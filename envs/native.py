@@ -21,6 +21,12 @@ Python round trip, not one per lane. The lanes go to ``threads`` threads (defaul
 process may use) when a call carries at least ``POOL_MIN_SECONDS`` of physics, else one.
 On a GPU the same code runs, but every step copies the lanes to the host and back (slow there:
 use the MJX backend on accelerators).
+
+``call`` chooses how the jitted program reaches MuJoCo: ``"ffi"``, an XLA FFI custom call into C++
+(envs/native_ffi.cc, built on first use by envs/native_ffi.py; CPU only), which does per lane what
+the Python path does, serially on XLA's thread, without a Python round trip; ``"callback"``, the
+``jax.pure_callback`` above; ``"auto"`` (default), the FFI call on a CPU backend when it builds,
+else the callback. Both give the same bits (tests/test_envs_native.py).
 """
 
 from __future__ import annotations
@@ -36,6 +42,10 @@ import mujoco
 import numpy as np
 from mujoco import batch as mujoco_batch
 from flax import struct
+
+from envs import native_ffi
+
+CALLS = ("auto", "ffi", "callback")
 
 
 @struct.dataclass
@@ -70,7 +80,7 @@ class NativePhysics:
     pure from JAX's point of view (outputs depend only on inputs) and accept any vmap nesting."""
 
     def __init__(self, mj_model: mujoco.MjModel, frame_skip: int, post_constraint: bool,
-                 dtype, threads: Optional[int] = None):
+                 dtype, threads: Optional[int] = None, call: str = "auto"):
         self.model = mj_model
         self.frame_skip = int(frame_skip)
         self.post_constraint = bool(post_constraint)
@@ -83,6 +93,7 @@ class NativePhysics:
         self._batches: Dict[int, _LaneBatch] = {}
         self._lock = threading.Lock()
         self.step_seconds = _time_one_step(mj_model, self.frame_skip)
+        self.ffi_key, self.call, self.call_reason = _choose_call(mj_model, call)
 
     # MuJoCo's thread pool pays only for enough work per call: 5 lanes of HalfCheetah (0.15 ms of
     # physics) ran 1.23x slower on 2 threads than on one, Swimmer (0.3 ms) 0.91x, Walker2d
@@ -122,9 +133,16 @@ class NativePhysics:
         nq, nv, nb = self.nq, self.nv, self.nbody
         shapes = (jax.ShapeDtypeStruct((2 * (nq + 2 * nv),), jnp.uint32),
                   jax.ShapeDtypeStruct((nq + nv + 9 * nb,), self.dtype))
-        exact, view = jax.pure_callback(
-            lambda x, y: self._host(kind, np.asarray(x), np.asarray(y)), shapes, a, b,
-            vmap_method="broadcast_all")
+        if self.ffi_key is not None:  # MuJoCo C on XLA's thread (envs/native_ffi.cc)
+            attrs = dict(key=np.int64(self.ffi_key), contact_forces=np.int64(self.post_constraint))
+            if kind == "step":
+                attrs["frame_skip"] = np.int64(self.frame_skip)
+            target = native_ffi.STEP_TARGET if kind == "step" else native_ffi.RESET_TARGET
+            exact, view = jax.ffi.ffi_call(target, shapes, vmap_method="broadcast_all")(a, b, **attrs)
+        else:
+            exact, view = jax.pure_callback(
+                lambda x, y: self._host(kind, np.asarray(x), np.asarray(y)), shapes, a, b,
+                vmap_method="broadcast_all")
         return NativeData(exact=exact, qpos=view[:nq], qvel=view[nq:nq + nv],
                           xpos=view[nq + nv:nq + nv + 3 * nb].reshape(nb, 3),
                           cfrc_ext=view[nq + nv + 3 * nb:].reshape(nb, 6))
@@ -148,6 +166,26 @@ class NativePhysics:
         z = lambda *s: jnp.zeros(s, self.dtype)
         return NativeData(exact=jnp.zeros((2 * n,), jnp.uint32), qpos=z(self.nq), qvel=z(self.nv),
                           xpos=z(self.nbody, 3), cfrc_ext=z(self.nbody, 6))
+
+
+def _choose_call(model: mujoco.MjModel, call: str) -> tuple[Optional[int], str, str]:
+    """(FFI model key or None, "ffi" or "callback", why) for the requested ``call`` (``CALLS``).
+    ValueError for an unknown value, or for "ffi" when the FFI library is unavailable."""
+    if call not in CALLS:
+        raise ValueError(f"unknown native call {call!r}; valid: {', '.join(CALLS)}")
+    if call == "callback":
+        return None, "callback", "native_call=callback"
+    if jax.default_backend() != "cpu":
+        if call == "ffi":
+            raise ValueError(f"native_call=ffi: the FFI handlers are CPU-only, JAX runs on {jax.default_backend()}; "
+                             f"valid: {', '.join(CALLS)}")
+        return None, "callback", f"the FFI handlers are CPU-only, JAX runs on {jax.default_backend()}"
+    if native_ffi.library() is None:
+        if call == "ffi":
+            raise ValueError(f"native_call=ffi: the native physics FFI is unavailable ({native_ffi.unavailable_reason()}); "
+                             f"valid: {', '.join(CALLS)}")
+        return None, "callback", f"the FFI is unavailable: {native_ffi.unavailable_reason()}"
+    return native_ffi.model_key(model), "ffi", f"native_call={call}"
 
 
 def _time_one_step(model: mujoco.MjModel, frame_skip: int, repeats: int = 30) -> float:

@@ -27,7 +27,8 @@ def make(env_id: str, **options) -> LocomotionEnv:
     ``None`` = the XML's 50), ``solver_tolerance`` (default ``None`` = the XML's 1e-8), ``solver_impl`` ("c", default:
     MuJoCo C's Newton solver, envs/mjx_solver.py; "mjx": MJX's own), ``dtype`` (must match JAX x64 mode: float64 iff x64 is enabled),
     ``backend`` ("mjx", default: MJX physics in JAX; "mujoco": MuJoCo C on the host from inside the
-    jitted program, envs/native.py).
+    jitted program, envs/native.py), ``native_call`` (with "mujoco": "auto", default; "ffi": an XLA FFI
+    call into C++; "callback": a Python callback; envs/native.py).
     An unknown id or option raises ``ValueError`` with one line naming the valid ones.
     """
     if env_id not in _REGISTRY:

@@ -133,12 +133,18 @@ def _row(c, times: list[float], compile_s: float, one_lane_s, chunk_steps: int, 
     }
 
 
+def learning_phase_overrides(chunk_steps: int, overrides=()) -> list[str]:
+    """Config overrides of a benchmark program: every step in the learning phase (env step + one
+    update), one call of ``chunk_steps`` steps per chunk, a 100k-row replay, then ``overrides``."""
+    return [f"eval_freq={chunk_steps}", f"total_steps={chunk_steps}", "learning_starts=0",
+            "replay_size=100000", f"progress_steps={chunk_steps}", *overrides]
+
+
 def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overrides=(), log=print,
             shard: str = "auto", variants=(), with_roofline: bool = False) -> dict:
     """Compile one program per (lane count, placement, variant), then time ``repeats`` interleaved
     chunks of each. ``variants``: extra override strings "k=v,k=v"; "" (always first) = none."""
-    bench = [f"eval_freq={chunk_steps}", f"total_steps={chunk_steps}", "learning_starts=0",
-             "replay_size=100000", f"progress_steps={chunk_steps}", *overrides]
+    bench = learning_phase_overrides(chunk_steps, overrides)
     variant_cfgs = {v: cfgmod.resolve(config, [*bench, *(v.split(",") if v else [])]) for v in ("", *variants)}
     candidates = _candidates(lanes, variant_cfgs, shard)
     progs, states, compile_s, cfgs = {}, {}, {}, {}

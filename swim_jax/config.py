@@ -29,6 +29,7 @@ CONFIG_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file
 PRECISIONS = ("float32", "float64")
 MATMUL_PRECISIONS = ("highest", "high", "default")
 MATMUL_DTYPES = ("auto", "full", "bfloat16")
+NATIVE_CALLS = envs.NATIVE_CALLS
 
 
 class ConfigError(ValueError):
@@ -39,11 +40,14 @@ class ConfigError(ValueError):
 class EnvConfig:
     """Environment id (``envs.ENV_IDS``), its time limit and physics backend (``mjx``: MJX in
     JAX, batched on any device; ``mujoco``: MuJoCo C on the host from inside the jitted program,
-    bit for bit Gymnasium's physics and the faster one on a CPU, see envs/native.py)."""
+    bit for bit Gymnasium's physics and the faster one on a CPU, see envs/native.py). With
+    ``mujoco``, ``native_call`` chooses how the program reaches MuJoCo C: ``auto`` (an XLA FFI call
+    into C++ on a CPU when it builds, else a Python callback), ``ffi`` or ``callback``."""
 
     id: str = "Walker2d-v5"
     max_episode_steps: int = 1000
     backend: str = "mjx"
+    native_call: str = "auto"
 
 
 @dataclass(frozen=True)
@@ -287,6 +291,8 @@ def validate(cfg: Config) -> Config:
         raise ConfigError(f"unknown env.id {cfg.env.id!r}; valid: {', '.join(envs.ENV_IDS)}")
     if cfg.env.backend not in envs.BACKENDS:
         raise ConfigError(f"unknown env.backend {cfg.env.backend!r}; valid: {', '.join(envs.BACKENDS)}")
+    if cfg.env.native_call not in NATIVE_CALLS:
+        raise ConfigError(f"unknown env.native_call {cfg.env.native_call!r}; valid: {', '.join(NATIVE_CALLS)}")
     act = cfg.agent.activation
     if act.name not in ACTIVATIONS:
         raise ConfigError(f"unknown agent.activation.name {act.name!r}; valid: {', '.join(sorted(ACTIVATIONS))}")

@@ -34,8 +34,13 @@ def _setup_precision(cfg: Config) -> None:
 def build(cfg: Config):
     """(env, eval env, agent) for a validated config, in the configured precision."""
     _setup_precision(cfg)
-    env = envs.make(cfg.env.id, max_episode_steps=cfg.env.max_episode_steps, backend=cfg.env.backend)
-    eval_env = envs.make(cfg.env.id, max_episode_steps=cfg.env.max_episode_steps, backend=cfg.env.backend)
+    options = dict(max_episode_steps=cfg.env.max_episode_steps, backend=cfg.env.backend)
+    if cfg.env.backend == "mujoco":
+        options["native_call"] = cfg.env.native_call
+    try:
+        env, eval_env = envs.make(cfg.env.id, **options), envs.make(cfg.env.id, **options)
+    except ValueError as e:  # e.g. native_call=ffi where the FFI is unavailable
+        raise cfgmod.ConfigError(str(e)) from None
     dtype = jnp.float64 if cfg.precision == "float64" else jnp.float32
     agent = TD3(
         cfg.agent,

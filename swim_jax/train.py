@@ -128,6 +128,10 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
         f"{num_lanes(cfg)} lanes; {matmul_dtype(cfg)[1]}")
     sharding = placement(cfg, log)
     prog = programs(cfg, sharding)
+    native = prog.env.native_physics
+    if native is not None:
+        say(f"native physics: MuJoCo C through {'an XLA FFI call' if native.call == 'ffi' else 'Python callbacks'} "
+            f"({native.call_reason})")
     lanes = program_lanes(cfg, prog, sharding)
     folder = outputs.RunFolder(cfg, run_dir, lanes.seed_ids, writes=distributed.is_writer())
     folder.create(fresh=not resume)
@@ -271,6 +275,7 @@ def _timing(cfg: Config, prog: Programs, lanes: Lanes, evals: _Evaluations, cloc
         "devices": jax.device_count() if lanes.sharding is not None else 1,
         "processes": jax.process_count(),
         "matmul_dtype": jnp.dtype(prog.agent.matmul_dtype or prog.agent.dtype).name,
+        "native_call": prog.env.native_physics.call if prog.env.native_physics is not None else None,
     }
 
 

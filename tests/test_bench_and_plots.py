@@ -1,6 +1,7 @@
 """The benchmark and figure CLIs: real runs on tiny settings, output files checked, bad input."""
 
 import json
+import math
 import subprocess
 import sys
 
@@ -201,3 +202,131 @@ def test_roofline_lists_the_update_products_with_their_hand_counted_flops():
     assert sum(d.flops for d in dots[False]) == 2 * b * critic_only
     times = roofline.time_dots(dots[True], repeats=1, loop=2)
     assert all(t > 0 for t in times.values())
+
+
+HLO_SNIPPET = """HloModule m
+
+%fused_computation.1 (param_0.1: f32[4,8], param_1.1: f32[8,16]) -> f32[4,16] {
+  %param_0.1 = f32[4,8]{1,0} parameter(0)
+  %param_1.1 = f32[8,16]{1,0} parameter(1)
+  ROOT %dot.9 = f32[4,16]{1,0} dot(%param_0.1, %param_1.1), lhs_contracting_dims={1}, rhs_contracting_dims={0}
+}
+
+ENTRY %main.2 (p0: f32[2,4,8], p1: f32[2,8,16], p2: f32[2,4,16], p3: f32[4,8], p4: f32[8,16]) -> f32[4,16] {
+  %p0 = f32[2,4,8]{2,1,0} parameter(0)
+  %p1 = f32[2,8,16]{2,1,0} parameter(1)
+  %p2 = f32[2,4,16]{2,1,0} parameter(2)
+  %p3 = f32[4,8]{1,0} parameter(3)
+  %p4 = f32[8,16]{1,0} parameter(4)
+  %dot.1 = f32[2,4,16]{2,1,0} dot(%p0, %p1), lhs_batch_dims={0}, lhs_contracting_dims={2}, rhs_batch_dims={0}, rhs_contracting_dims={1}
+  %dot.2 = f32[2,4,8]{2,1,0} dot(%p2, %p1), lhs_batch_dims={0}, lhs_contracting_dims={2}, rhs_batch_dims={0}, rhs_contracting_dims={2}
+  %dot.3 = f32[2,8,16]{2,1,0} dot(%p0, %p2), lhs_batch_dims={0}, lhs_contracting_dims={1}, rhs_batch_dims={0}, rhs_contracting_dims={1}
+  ROOT %ynn_fusion.4 = f32[4,16]{1,0} fusion(%p3, %p4), kind=kCustom, calls=%fused_computation.1
+}
+"""
+
+
+def test_profile_reads_each_products_layout_and_flops_from_hlo():
+    """bench_profile.products on a hand-written module: x@W (NN), g·Wᵀ (NT), xᵀ·g (TN), batched,
+    and a fusion that contains a dot (as XLA's YNNPACK fusions do), with FLOPs 2·|out|·K."""
+    from swim_jax import bench_profile as bp
+
+    p = bp.products(HLO_SNIPPET)
+    assert {n: (q.layout, q.contracted, q.flops) for n, q in p.items() if n != "dot.9"} == {
+        "dot.1": ("NN", 8, 2 * 2 * 4 * 16 * 8), "dot.2": ("NT", 16, 2 * 2 * 4 * 8 * 16),
+        "dot.3": ("TN", 4, 2 * 2 * 8 * 16 * 4), "ynn_fusion.4": ("NN", 8, 2 * 4 * 16 * 8)}
+    assert {"p0", "dot.1", "ynn_fusion.4", "dot.9"} <= bp.instruction_names(HLO_SNIPPET)
+
+
+def test_profile_self_times_subtract_nested_operations_only():
+    """A while (0–100 µs) holding a dot (10–40) and a fusion (50–70) whose Python frame (55–60) is
+    not an operation; another thread's dot (0–25): self times 50, 30+25, 20; calls counted."""
+    from swim_jax import bench_profile as bp
+
+    ev = lambda name, ts, dur, tid=1: {"ph": "X", "name": name, "ts": ts, "dur": dur, "pid": 1, "tid": tid}
+    events = [ev("while.1", 0, 100), ev("dot.2", 10, 30), ev("fusion.3", 50, 20), ev("$x.py:1 f", 55, 5),
+              ev("dot.2", 0, 25, tid=2), {"ph": "M", "name": "thread_name"}]
+    total, calls = bp.self_times(events, {"while.1", "dot.2", "fusion.3"})
+    assert dict(total) == {"while.1": 50, "dot.2": 55, "fusion.3": 20}
+    assert dict(calls) == {"while.1": 1, "dot.2": 2, "fusion.3": 1}
+    assert bp.kind("multiply_add_fusion.38") == "multiply_add_fusion" and bp.kind("dot") == "dot"
+
+
+def test_profile_of_a_compiled_loop_times_its_products():
+    """A jitted loop of 8 iterations with three 64×32×48 products: the profile finds the three,
+    8 calls each, their FLOPs summing to 3 · 2·64·32·48 per iteration, with positive times."""
+    import jax
+    import jax.numpy as jnp
+    from jax import lax
+
+    from swim_jax import bench_profile as bp
+
+    def f(x, w, g):
+        def body(c, _):
+            xc = x + c  # not loop-invariant: the products stay in the loop
+            y = lax.dot_general(xc, w, (((1,), (0,)), ((), ())))
+            dx = lax.dot_general(g + c, w, (((1,), (1,)), ((), ())))
+            dw = lax.dot_general(xc, g, (((0,), (0,)), ((), ())))
+            return c + 1e-6 * (y.sum() + dx.sum() + dw.sum()), None
+        return lax.scan(body, jnp.float32(0), None, length=8)[0]
+
+    args = (jnp.ones((64, 32)), jnp.ones((32, 48)), jnp.ones((64, 48)))
+    compiled = jax.jit(f).lower(*args).compile()
+    text = compiled.as_text()
+    jax.block_until_ready(compiled(*args))
+    res = bp.summarise(bp.profile_call(lambda: jax.block_until_ready(compiled(*args)), text), text, steps=8)
+    assert len(res["products"]) == 3 and all(r["calls_per_step"] == 1 and r["us_per_call"] > 0 for r in res["products"])
+    assert res["products_gflop_per_step"] * 1e9 == pytest.approx(3 * 2 * 64 * 32 * 48)
+    assert 0 < res["products_ms_per_step"] <= res["busy_ms_per_step"]
+
+
+@pytest.mark.parametrize("args,needle", [(["--lanes", "0"], ">= 1"), (["--steps", "0"], ">= 1"),
+                                         (["--config", "nope"], "valid configs")])
+def test_profile_benchmark_bad_input_exit_2_nothing_written(tmp_path, capsys, args, needle):
+    from swim_jax.bench_profile import main as bench_profile_main
+
+    assert bench_profile_main([*args, "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert needle in err and err.count("\n") == 1
+    assert not (tmp_path / "o").exists()
+
+
+def _sizes(d) -> tuple[int, int, int]:
+    """(M, N, K) of a roofline.Dot: the sizes of its left and right operands' free (non-contracted,
+    non-batch) axes and of the contracted ones."""
+    (lc, rc), (lb, rb) = d.dimension_numbers
+    m = math.prod(x for i, x in enumerate(d.lhs) if i not in lc and i not in lb)
+    n = math.prod(x for i, x in enumerate(d.rhs) if i not in rc and i not in rb)
+    return m, n, math.prod(d.lhs[i] for i in lc)
+
+
+@pytest.mark.slow
+def test_profile_benchmark_counts_the_training_steps_products(tmp_path):
+    """``bench profile`` on a 2-lane 16-unit Hopper program (native physics, every step learning):
+    the products it finds add up, per step, to at most the products of acting (actor on one row per
+    lane) and of the TD3 update averaged over the policy delay, as the update's jaxpr lists them
+    (swim_jax.roofline), and to at least the matrix-matrix products (M, N, K > 1) of the critic
+    update, which every step runs and needs in full (XLA may run a matrix-vector or outer product,
+    e.g. through a critic's 1-unit head, as a multiply and a reduction, and drops the actor step's
+    unused second-critic products)."""
+    from swim_jax import bench_profile as bp
+    from swim_jax import config as cfgmod
+    from swim_jax import programs, roofline
+
+    tiny = ["agent.hidden=[16]", "agent.batch_size=16", "env.backend=mujoco"]
+    assert bp.main(["--config", "hopper_relu", "--lanes", "2", "--steps", "20", *[a for t in tiny for a in ("--set", t)],
+                    "--out", str(tmp_path)]) == 0
+    (path,) = tmp_path.glob("profile-*.json")
+    res = json.loads(path.read_text())
+    agent = programs.build(cfgmod.resolve("hopper_relu", tiny))[2]
+    dots = roofline.update_dots(agent)
+    d = agent.config.policy_freq
+
+    def per_step(keep):
+        return ((d - 1) * sum(x.flops for x in dots[False] if keep(x)) + sum(x.flops for x in dots[True] if keep(x))) / d
+
+    acting = 2 * (agent.obs_dim * 16 + 16 * agent.action_dim)
+    found = res["products_gflop_per_step"] * 1e9
+    critic_update = sum(x.flops for x in dots[False] if min(_sizes(x)) > 1)
+    assert 2 * critic_update <= found <= 2 * (per_step(lambda x: True) + acting)
+    assert res["lanes"] == 2 and res["kinds"] and res["timed_ms_per_step"] > 0

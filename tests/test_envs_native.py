@@ -6,7 +6,9 @@ steps) is stepped by our env with the recorded action, all at once (the lanes sp
 thread pool): obs, reward and terminated equal Gymnasium's exactly. Closed loop: from
 Gymnasium's reset state, the same 1000 actions (resetting both where Gymnasium terminates) give
 Gymnasium's trajectory exactly. In float32 JAX the physics stays float64 (carried as raw bits),
-so observations are exactly Gymnasium's rounded to float32.
+so observations are exactly Gymnasium's rounded to float32. The default call into MuJoCo is the
+XLA FFI handler (envs/native_ffi.cc) where it builds; the Python callback is checked against
+Gymnasium too, and against the FFI call bit for bit.
 """
 
 import jax
@@ -16,6 +18,7 @@ import pytest
 
 import envs
 from envs import gym_reference as gr
+from envs import native_ffi
 from envcases import N_STEPS, env_params
 
 ALL = ("Hopper-v5", "Walker2d-v5", "HalfCheetah-v5", "Swimmer-v5", "Ant-v5", "Hopper-v4",
@@ -36,10 +39,11 @@ def recordings():
     return get
 
 
+@pytest.mark.parametrize("call", ["auto", "callback"])
 @pytest.mark.parametrize("env_id", env_params(ALL, fast=FAST))
-def test_teacher_forced_float64_is_bit_identical(env_id, x64, recordings):
+def test_teacher_forced_float64_is_bit_identical(env_id, call, x64, recordings):
     rec = recordings(env_id)
-    st = gr.run_teacher_forced(envs.make(env_id, backend="mujoco"), rec)
+    st = gr.run_teacher_forced(envs.make(env_id, backend="mujoco", native_call=call), rec)
     assert st.obs.dtype == jnp.float64
     np.testing.assert_array_equal(np.asarray(st.obs), rec["obs"])
     np.testing.assert_array_equal(np.asarray(st.reward), rec["reward"])
@@ -157,7 +161,7 @@ def test_a_one_lane_program_with_other_outputs_runs_repeatedly():
 def test_lanes_on_mujocos_thread_pool_equal_lanes_stepped_serially():
     """8 lanes × 30 steps of HalfCheetah on 2 threads and on one: the same bits, resets included."""
     def run(threads: int, pool_min_seconds: float):
-        env = envs.make("HalfCheetah-v5", backend="mujoco")
+        env = envs.make("HalfCheetah-v5", backend="mujoco", native_call="callback")
         native = env.native_physics
         native.threads, native.POOL_MIN_SECONDS = threads, pool_min_seconds
         keys = jax.random.split(jax.random.PRNGKey(3), 8)
@@ -170,3 +174,69 @@ def test_lanes_on_mujocos_thread_pool_equal_lanes_stepped_serially():
         return out
 
     np.testing.assert_array_equal(run(2, 0.0), run(1, 1.0))
+
+
+needs_ffi = pytest.mark.skipif(native_ffi.library() is None,
+                               reason=f"native physics FFI unavailable: {native_ffi.unavailable_reason()}")
+
+
+def _rollout_bits(env_id: str, call: str, lanes: int = 3, steps: int = 300):
+    """obs, reward, done and state bits of ``steps`` random-action steps of ``lanes`` vmapped
+    lanes with auto-reset (one jitted scan)."""
+    env = envs.make(env_id, backend="mujoco", native_call=call)
+    assert env.native_physics.call == call, env.native_physics.call_reason
+
+    def rollout(key):
+        state = jax.vmap(env.reset)(jax.random.split(key, lanes))
+
+        def body(st, k):
+            a = jax.random.uniform(k, (lanes, env.action_size), minval=-1, maxval=1)
+            st, _ = envs.step_autoreset_lanes(env, st, a, jax.random.split(jax.random.fold_in(k, 1), lanes))
+            return st, (st.obs, st.reward, st.done, st.pipeline_state.exact)
+
+        return jax.lax.scan(body, state, jax.random.split(key, steps))[1]
+
+    return [np.asarray(x) for x in jax.jit(rollout)(jax.random.PRNGKey(0))]
+
+
+@needs_ffi
+@pytest.mark.parametrize("env_id", ["Hopper-v5", "Ant-v5"])
+def test_ffi_call_and_python_callback_give_the_same_bits(env_id):
+    """300 steps × 3 lanes of random actions with auto-reset (Hopper falls and resets often; Ant's
+    observation reads contact forces): obs, rewards, dones and the float64 state bits of the XLA
+    FFI call equal the Python callback's exactly."""
+    ffi, callback = _rollout_bits(env_id, "ffi"), _rollout_bits(env_id, "callback")
+    if env_id == "Hopper-v5":
+        assert callback[2].sum() >= 3  # resets happened
+    for name, a, b in zip(("obs", "reward", "done", "exact"), ffi, callback):
+        np.testing.assert_array_equal(a, b, err_msg=name)
+
+
+@needs_ffi
+def test_ffi_models_are_keyed_by_content_and_an_unknown_key_is_a_clear_error():
+    hopper, again = envs.make("Hopper-v5", backend="mujoco"), envs.make("Hopper-v5", backend="mujoco")
+    walker = envs.make("Walker2d-v5", backend="mujoco")
+    assert hopper.native_physics.call == "ffi"
+    assert hopper.native_physics.ffi_key == again.native_physics.ffi_key != walker.native_physics.ffi_key
+    hopper.native_physics.ffi_key += 1  # a key no model was registered under
+    with pytest.raises(Exception, match="is not registered in this process"):
+        jax.block_until_ready(jax.jit(hopper.reset)(jax.random.PRNGKey(0)))
+
+
+def test_native_call_choices_and_the_fallback_when_the_ffi_is_unavailable(monkeypatch):
+    with pytest.raises(ValueError, match=r"^unknown native call 'python'; valid: auto, ffi, callback$"):
+        envs.make("Hopper-v5", backend="mujoco", native_call="python")
+    assert envs.make("Hopper-v5", backend="mujoco", native_call="callback").native_physics.call == "callback"
+    monkeypatch.setattr(native_ffi, "library", lambda: None)
+    monkeypatch.setattr(native_ffi, "_REASON", ["no C++ compiler (c++, g++ or clang++; or set CXX)"])
+    auto = envs.make("Hopper-v5", backend="mujoco").native_physics
+    assert auto.call == "callback" and "no C++ compiler" in auto.call_reason
+    with pytest.raises(ValueError, match=r"^native_call=ffi: the native physics FFI is unavailable \(no C\+\+ compiler"):
+        envs.make("Hopper-v5", backend="mujoco", native_call="ffi")
+
+
+def test_a_failed_build_names_the_compiler_and_leaves_no_library(tmp_path, monkeypatch):
+    monkeypatch.setenv("CXX", "false")  # a "compiler" that always fails
+    with pytest.raises(RuntimeError, match=r"^false failed"):
+        native_ffi._build(str(tmp_path / "native.so"))
+    assert list(tmp_path.iterdir()) == []

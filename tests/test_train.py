@@ -369,6 +369,7 @@ def test_nan_detection_names_seed_step_and_quantity(vmapped):
         (["config=walker_swim", "matmul_precision=tf32"], "valid: highest, high, default"),
         (["config=walker_swim", "matmul_dtype=float16"], "valid: auto, full, bfloat16"),
         (["config=walker_swim", "env.backend=bullet"], "unknown env.backend 'bullet'; valid: mjx, mujoco"),
+        (["config=walker_swim", "env.native_call=python"], "unknown env.native_call 'python'; valid: auto, ffi, callback"),
         (["config=walker_swim", "total_steps=12345"], "multiple of eval_freq"),
         (["config=walker_swim", "bogus"], "expected config=<name>"),
         ([], "valid configs:"),
