@@ -15,8 +15,8 @@ rounded to float32). One step is Gymnasium's ``do_simulation``: ``ctrl = action`
 a reset is Gymnasium's ``mj_resetData`` + ``set_state`` (``mj_forward``). In float64 this gives
 Gymnasium's observations, rewards and terminations bit for bit (tests/test_envs_native.py).
 
-All lanes of a call are one :class:`mujoco.batch.Batch` (MuJoCo's own C++ loop over
-simulations, bit-identical to one MjData per lane at any thread count), so a call costs one
+With the callback, all lanes of a call are one :class:`mujoco.batch.Batch` (MuJoCo's own C++ loop
+over simulations, bit-identical to one MjData per lane at any thread count), so a call costs one
 Python round trip, not one per lane. The lanes go to ``threads`` threads (default: the CPUs this
 process may use) when a call carries at least ``POOL_MIN_SECONDS`` of physics, else one.
 On a GPU the same code runs, but every step copies the lanes to the host and back (slow there:
