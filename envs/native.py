@@ -1,8 +1,9 @@
 """Native MuJoCo C physics inside a jitted JAX program (``envs.make(..., backend="mujoco")``).
 
-The physics of every lane runs in MuJoCo C, the library Gymnasium itself runs, through one
-``jax.pure_callback`` per env step (``vmap_method="broadcast_all"``: a vmapped or nested-vmapped
-call reaches the host once, with every lane's arrays stacked along leading axes). Everything
+The physics of every lane runs in MuJoCo C, the library Gymnasium itself runs, through one call
+per env step, an XLA FFI call into C++ or a ``jax.pure_callback`` (see ``call`` below; both with
+``vmap_method="broadcast_all"``: a vmapped or nested-vmapped call reaches MuJoCo once, with every
+lane's arrays stacked along leading axes). Everything
 else (observation, reward, termination, time limit, auto-reset) stays the task's JAX code, shared
 with the MJX backend: :class:`NativeData` exposes the fields the tasks read (``qpos``, ``qvel``,
 ``xpos``, ``cfrc_ext``) in the env dtype.
