@@ -91,8 +91,8 @@ def products(hlo_text: str) -> dict[str, Product]:
     shapes = {m.group(1): tuple(int(x) for x in m.group(3).split(",") if x) for m in _INSTRUCTION.finditer(hlo_text)}
     # the products of every computation (fused computations are printed before their callers); a
     # dot inside a fusion never runs as its own operation, so only its fusion gets calls in a trace
-    starts = [m.start() for m in _COMPUTATION.finditer(hlo_text)]
-    names = [m.group(1) for m in _COMPUTATION.finditer(hlo_text)]
+    headers = list(_COMPUTATION.finditer(hlo_text))
+    starts, names = [m.start() for m in headers], [m.group(1) for m in headers]
     in_computation: dict[str, list[Product]] = collections.defaultdict(list)
     found: dict[str, Product] = {}
     for m in _INSTRUCTION.finditer(hlo_text):

@@ -123,13 +123,17 @@ def test_env_benchmark_rejects_an_unknown_backend_with_exit_2(tmp_path, capsys):
     assert not (tmp_path / "o").exists()
 
 
-@pytest.mark.parametrize("args,needle", [(["--lanes", "0,2"], "positive integers"), (["--lanes", "x"], "positive integers"),
-                                         (["--config", "nope"], "valid configs"), (["--repeats", "0"], ">= 1"),
-                                         (["--variant", "matmul_dtype=float16"], "valid: auto, full, bfloat16")])
-def test_train_benchmark_bad_input_exit_2_nothing_written(tmp_path, capsys, args, needle):
-    from swim_jax.bench_train import main as bench_train_main
+@pytest.mark.parametrize("module,args,needle", [
+    ("bench_train", ["--lanes", "0,2"], "positive integers"), ("bench_train", ["--lanes", "x"], "positive integers"),
+    ("bench_train", ["--config", "nope"], "valid configs"), ("bench_train", ["--repeats", "0"], ">= 1"),
+    ("bench_train", ["--variant", "matmul_dtype=float16"], "valid: auto, full, bfloat16"),
+    ("bench_profile", ["--lanes", "0"], ">= 1"), ("bench_profile", ["--steps", "0"], ">= 1"),
+    ("bench_profile", ["--config", "nope"], "valid configs")])
+def test_train_and_profile_benchmarks_bad_input_exit_2_nothing_written(tmp_path, capsys, module, args, needle):
+    import importlib
 
-    assert bench_train_main([*args, "--out", str(tmp_path / "o")]) == 2
+    main = importlib.import_module(f"swim_jax.{module}").main
+    assert main([*args, "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
     assert needle in err and err.count("\n") == 1
     assert not (tmp_path / "o").exists()
@@ -278,17 +282,6 @@ def test_profile_of_a_compiled_loop_times_its_products():
     assert len(res["products"]) == 3 and all(r["calls_per_step"] == 1 and r["us_per_call"] > 0 for r in res["products"])
     assert res["products_gflop_per_step"] * 1e9 == pytest.approx(3 * 2 * 64 * 32 * 48)
     assert 0 < res["products_ms_per_step"] <= res["busy_ms_per_step"]
-
-
-@pytest.mark.parametrize("args,needle", [(["--lanes", "0"], ">= 1"), (["--steps", "0"], ">= 1"),
-                                         (["--config", "nope"], "valid configs")])
-def test_profile_benchmark_bad_input_exit_2_nothing_written(tmp_path, capsys, args, needle):
-    from swim_jax.bench_profile import main as bench_profile_main
-
-    assert bench_profile_main([*args, "--out", str(tmp_path / "o")]) == 2
-    err = capsys.readouterr().err
-    assert needle in err and err.count("\n") == 1
-    assert not (tmp_path / "o").exists()
 
 
 def _sizes(d) -> tuple[int, int, int]:
