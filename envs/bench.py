@@ -21,7 +21,6 @@ import time
 from typing import Dict, List, Optional, Sequence
 
 import jax
-import jax.numpy as jnp
 import mujoco
 import numpy as np
 

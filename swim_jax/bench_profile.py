@@ -43,7 +43,7 @@ import jax.numpy as jnp
 from swim_jax import config as cfgmod
 from swim_jax import programs
 from swim_jax.bench_io import cpu_model, write_result
-from swim_jax.bench_train import learning_phase_overrides
+from swim_jax.bench_train import lanes_program, learning_phase_overrides
 from swim_jax.config import ConfigError
 
 _INSTRUCTION = re.compile(r"^\s*(?:ROOT )?%([\w.\-]+) = (\w+)\[([\d,]*)\]\S* ([\w\-]+)\((.*)$", re.M)
@@ -200,10 +200,7 @@ def summarise(prof: dict, hlo_text: str, steps: int) -> dict:
 def measure(config: str, lanes: int, steps: int, overrides=(), log=print) -> dict:
     """Compile the ``lanes``-lane learning-phase chunk of ``config`` (``steps`` steps per call), time
     one call, profile the next, and return the tables of :func:`summarise` with the run's facts."""
-    cfg = cfgmod.resolve(config, learning_phase_overrides(steps, overrides))
-    cfg = dataclasses.replace(cfg, seeds=lanes, pad_single_seed=False)
-    prog = programs.programs(cfg)
-    state = prog.init_fn(jnp.asarray(0, jnp.uint32), jnp.arange(lanes, dtype=jnp.int32))
+    cfg, prog, state = lanes_program(cfgmod.resolve(config, learning_phase_overrides(steps, overrides)), lanes)
     t0 = time.perf_counter()
     chunk = prog.chunk_fn.lower(state, jnp.asarray(0, jnp.int32)).compile()
     log(f"compiled the {lanes}-lane chunk in {time.perf_counter() - t0:.1f} s")

@@ -140,6 +140,16 @@ def learning_phase_overrides(chunk_steps: int, overrides=()) -> list[str]:
             "replay_size=100000", f"progress_steps={chunk_steps}", *overrides]
 
 
+def lanes_program(cfg, lanes: int, sharding=None):
+    """The training program of resolved config ``cfg`` with ``lanes`` lanes (seeds 0 … lanes−1, no
+    padding of a single seed) and its initial state, placed by ``sharding`` (None: one device):
+    ``(cfg with those lanes, program, state)``. What every benchmark of a training chunk times."""
+    cfg = dataclasses.replace(cfg, seeds=lanes, pad_single_seed=False)
+    prog = programs.programs(cfg, sharding)
+    state = place(prog.init_fn(jnp.asarray(0, jnp.uint32), jnp.arange(lanes, dtype=jnp.int32)), sharding)
+    return cfg, prog, state
+
+
 def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overrides=(), log=print,
             shard: str = "auto", variants=(), with_roofline: bool = False) -> dict:
     """Compile one program per (lane count, placement, variant), then time ``repeats`` interleaved
@@ -154,9 +164,7 @@ def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overr
 
     for c in candidates:
         L, sh, v = c
-        cfgs[c] = dataclasses.replace(variant_cfgs[v], seeds=L, pad_single_seed=False)
-        progs[c] = prog = programs.programs(cfgs[c], sh)
-        st = place(prog.init_fn(jnp.asarray(0, jnp.uint32), jnp.arange(L, dtype=jnp.int32)), sh)
+        cfgs[c], progs[c], st = lanes_program(variant_cfgs[v], L, sh)
         t0 = time.perf_counter()
         states[c] = run_chunk(c, st, 0)
         compile_s[c] = time.perf_counter() - t0

@@ -21,7 +21,7 @@ from typing import Any, Mapping
 import yaml
 
 import envs
-from agents.td3 import ActivationConfig, TD3Config, replace_fields, sweepable_fields
+from agents.td3 import TD3Config, replace_fields, sweepable_fields
 from swim_jax.activations import ACTIVATIONS, learnable_activations, validate_params
 from swim_jax import tensorboard_log
 

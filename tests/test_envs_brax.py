@@ -11,7 +11,6 @@ Our own time limit is off (``max_episode_steps=None``); brax's EpisodeWrapper ke
 """
 
 import jax
-import jax.numpy as jnp
 import numpy as np
 import pytest
 

@@ -23,7 +23,7 @@ import pytest
 
 import envs
 from envs import gym_reference as gr
-from envcases import N_STEPS, env_params, teacher_forced_errors
+from envcases import env_params, teacher_forced_errors
 
 ATOL_F32 = 1e-4
 # max abs obs error ceilings in float32 (about 3x the measured maxima, docs/ENVS.md)
