@@ -179,7 +179,7 @@ def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overr
             times[c].append(time.perf_counter() - t0)
     agent = progs[candidates[0]].agent
     flops = update_flops(agent)
-    roof = _rooflines(config, (*bench, *overrides), agent, log) if with_roofline else None
+    roof = _rooflines(config, bench, agent, log) if with_roofline else None  # bench ends with overrides
     one = {}  # cost ratios against the first (single-device) 1-lane program of the same variant
     for c in candidates:
         if c[0] == 1 and c[2] not in one:
