@@ -5,8 +5,10 @@
 
 The chunk of a ``--lanes``-lane learning-phase program (native physics, float32 products,
 ``learning_starts=0``) is lowered once and compiled with each option set below (and each
-``--options`` set); the executables then run ``--rounds`` interleaved rounds of ``--steps`` steps each. Prints the median ms per step and the median ratio of step times
-against XLA's defaults (the project's own default, ``xla_cpu_ynn_fusions=false``, is "ynn_off").
+``--options`` set); the executables then run ``--rounds`` interleaved rounds of ``--steps`` steps
+each. Prints the median ms per step and the median ratio of step times against XLA's defaults (the
+project's own default, ``xla_cpu_ynn_fusions=false``, is "ynn_off"; ``--options`` sets also start
+from XLA's defaults).
 """
 
 from __future__ import annotations

@@ -141,16 +141,14 @@ def main(argv=None) -> int:
     import jax.numpy as jnp
 
     from swim_jax import config as cfgmod
-    from swim_jax.programs import programs
+    from swim_jax.bench_train import lanes_program, learning_phase_overrides
 
     torch_step = pytorch_td3(args.env)
     for _ in range(1000):  # random warm-up fills the buffer (the original uses 25k; speed is the same)
         torch_step(learn=False)
-    cfg = cfgmod.resolve(CONFIGS[args.env], [f"seeds={args.lanes}", f"eval_freq={args.steps}",
-                                             f"total_steps={args.steps}", "learning_starts=0",
-                                             "replay_size=100000", "pad_single_seed=false"])
-    prog = programs(cfg)
-    st = prog.init_fn(jnp.asarray(0, jnp.uint32), jnp.arange(args.lanes, dtype=jnp.int32))
+    # one chunk call = --steps steps (progress_steps too: with its default 1000, --steps 2000 ran
+    # chunks of 1000 steps while the rate counted 2000)
+    _, prog, st = lanes_program(cfgmod.resolve(CONFIGS[args.env], learning_phase_overrides(args.steps)), args.lanes)
     st = jax.block_until_ready(prog.chunk_fn(st, jnp.asarray(0, jnp.int32))[0])  # compile
     for _ in range(50):
         torch_step()
