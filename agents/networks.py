@@ -12,8 +12,9 @@ default initialisation (weights and biases U(±1/√fan_in)), as in the original
 ``matmul_dtype`` (e.g. ``jnp.bfloat16``): every Dense layer rounds its input, kernel and bias to that
 type and accumulates the products in the network dtype,
 y = Σᵢ bf16(xᵢ)·bf16(Wᵢⱼ) (summed in float32) + bf16(bⱼ), and its derivatives are such products too
-(:func:`low_precision_dot_general`); parameters, optimiser state and the activations stay in the
-network dtype. None (default): plain matmuls in the network dtype.
+(:func:`dense_dot_general`); parameters, optimiser state and the activations stay in the
+network dtype. None (default): plain matmuls in the network dtype. Either way the derivative
+products are laid out for XLA's CPU dot (:func:`dense_dot_general`).
 """
 
 from __future__ import annotations
@@ -48,51 +49,66 @@ def torch_linear_bias_init(fan_in: int):
 
 
 def dense_precision_options(dtype: Any, matmul_dtype: Any = None) -> dict:
-    """``nn.Dense`` keyword options: parameters in ``dtype``; with ``matmul_dtype`` the layer's
-    inputs, kernel and bias are rounded to it and the matmul accumulates in ``dtype``
-    (``preferred_element_type``), so the output is back in ``dtype``."""
+    """``nn.Dense`` keyword options: parameters in ``dtype`` and :func:`dense_dot_general` as the
+    product; with ``matmul_dtype`` the layer's inputs, kernel and bias are rounded to it and the
+    matmul accumulates in ``dtype`` (``accumulate``), so the output is back in ``dtype``."""
     if matmul_dtype is None or jnp.dtype(matmul_dtype) == jnp.dtype(dtype):
-        return dict(dtype=dtype, param_dtype=dtype)
+        return dict(dtype=dtype, param_dtype=dtype, dot_general=dense_dot_general)
     return dict(dtype=matmul_dtype, param_dtype=dtype,
-                dot_general=functools.partial(low_precision_dot_general, accumulate=jnp.dtype(dtype)))
+                dot_general=functools.partial(dense_dot_general, accumulate=jnp.dtype(dtype)))
 
 
-def low_precision_dot_general(lhs, rhs, dimension_numbers, precision=None, preferred_element_type=None,
-                              *, accumulate):
-    """``x @ W`` for a Dense layer whose ``x`` and ``W`` are already rounded to a low-precision type
-    (bfloat16): products summed in ``accumulate`` (float32), output in ``accumulate``. Its
-    derivatives are low-precision matmuls too (as PyTorch's autocast computes them): with the
-    output cotangent g rounded to the operands' type, dx = g·Wᵀ and dW = xᵀ·g, each summed in
-    ``accumulate`` and returned in the operands' type. Only the Dense contraction (last axis of
-    ``x`` with the first of ``W``, no batch axes) is accepted."""
+def dense_dot_general(lhs, rhs, dimension_numbers, precision=None, preferred_element_type=None, *,
+                      accumulate=None):
+    """``y = x @ W`` for a Dense layer (the last axis of ``x`` with the first of ``W``, no batch axes;
+    anything else is refused), with derivatives dx = g·Wᵀ and dW = xᵀ·g written for XLA's CPU dot.
+
+    dx is a plain product with an explicitly transposed kernel, g·(Wᵀ): XLA folds a transpose into
+    the dot as an "NT" product, which its CPU (Eigen) kernel runs ~20 % slower than the plain "NN"
+    form, while Wᵀ is a kernel-sized copy (docs/BENCHMARKS.md §9). dW stays the folded xᵀ·g: there
+    the copy would be batch-sized and costs more than it saves.
+
+    ``accumulate`` (float32) with low-precision ``x`` and ``W`` (bfloat16): products summed in
+    ``accumulate``, output in ``accumulate``; the derivatives are low-precision products too (as
+    PyTorch's autocast computes them): the output cotangent g is rounded to the operands' type, dx
+    and dW are summed in ``accumulate`` and returned in the operands' type, and dW is xᵀ·g on an
+    explicitly transposed x (XLA's CPU backend has no bf16 kernel for the folded form outside its
+    YNNPACK fusions). ``precision`` and ``preferred_element_type`` from flax are ignored: the
+    product is in the operands' type, or summed in ``accumulate``."""
     dense = (((lhs.ndim - 1,), (0,)), ((), ()))
     if tuple(map(tuple, dimension_numbers[0])) != dense[0] or any(dimension_numbers[1]):
-        raise ValueError(f"low_precision_dot_general: only x @ W, got dimension_numbers {dimension_numbers}")
-    return _low_precision_matmul(lhs, rhs, accumulate)
+        raise ValueError(f"dense_dot_general: only x @ W, got dimension_numbers {dimension_numbers}")
+    return _dense_matmul(lhs, rhs, accumulate)
+
+
+def _matmul(a, b, accumulate):
+    """a @ b over a's last axis and b's first (no batch axes), summed in ``accumulate`` if given."""
+    return lax.dot_general(a, b, (((a.ndim - 1,), (0,)), ((), ())), preferred_element_type=accumulate)
 
 
 @functools.partial(jax.custom_vjp, nondiff_argnums=(2,))
-def _low_precision_matmul(x, w, accumulate):
-    return lax.dot_general(x, w, (((x.ndim - 1,), (0,)), ((), ())), preferred_element_type=accumulate)
+def _dense_matmul(x, w, accumulate):
+    return _matmul(x, w, accumulate)
 
 
-def _low_precision_matmul_fwd(x, w, accumulate):
-    return _low_precision_matmul(x, w, accumulate), (x, w)
+def _dense_matmul_fwd(x, w, accumulate):
+    return _matmul(x, w, accumulate), (x, w)
 
 
-def _low_precision_matmul_bwd(accumulate, residuals, g):
+def _dense_matmul_bwd(accumulate, residuals, g):
     x, w = residuals
     g = g.astype(x.dtype)
-    dx = lax.dot_general(g, w, (((g.ndim - 1,), (1,)), ((), ())), preferred_element_type=accumulate)
-    # dW = xᵀ·g as a plain (in × rows)·(rows × out) product on an explicitly transposed x: XLA
-    # (jaxlib 0.10) would fold the transpose into the dot, and its CPU backend has no bf16 kernel
-    # for that form outside its YNNPACK fusions
-    x_t = lax.optimization_barrier(x.reshape(-1, x.shape[-1]).T)
-    dw = lax.dot_general(x_t, g.reshape(-1, g.shape[-1]), (((1,), (0,)), ((), ())), preferred_element_type=accumulate)
+    # the barrier keeps XLA from folding the transpose back into the dot (see dense_dot_general)
+    dx = _matmul(g, lax.optimization_barrier(w.T), accumulate)
+    rows_x, rows_g = x.reshape(-1, x.shape[-1]), g.reshape(-1, g.shape[-1])
+    if accumulate is None:
+        dw = lax.dot_general(rows_x, rows_g, (((0,), (0,)), ((), ())))
+    else:
+        dw = _matmul(lax.optimization_barrier(rows_x.T), rows_g, accumulate)
     return dx.astype(x.dtype), dw.astype(w.dtype)
 
 
-_low_precision_matmul.defvjp(_low_precision_matmul_fwd, _low_precision_matmul_bwd)
+_dense_matmul.defvjp(_dense_matmul_fwd, _dense_matmul_bwd)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -183,7 +199,12 @@ class _Critic(nn.Module):
 
 class TwinCritic(nn.Module):
     """Twin critics (Q₁, Q₂) as one module: parameters stacked on a leading axis of size
-    ``num_critics`` (default 2), independently initialised; ``__call__(obs, action) -> (2, ...)``."""
+    ``num_critics`` (default 2), independently initialised; ``__call__(obs, action) -> (2, ...)``.
+
+    Each critic is handed its own (broadcast) copy of ``(obs, action)``: with one shared input XLA
+    merges the critics' first layers into one wider product whose output and derivative it must
+    then transpose into per-critic order; with a copy each, the layers stay one batched product
+    (the same numbers; 0.5–4 % less time per TD3 step on a CPU, docs/BENCHMARKS.md §9)."""
 
     options: NetworkOptions = NetworkOptions()
     num_critics: int = 2
@@ -194,8 +215,9 @@ class TwinCritic(nn.Module):
             _Critic,
             variable_axes={"params": 0},
             split_rngs={"params": True},
-            in_axes=None,
+            in_axes=0,
             out_axes=0,
             axis_size=self.num_critics,
         )
-        return vmapped(self.options, name="critics")(obs, action)
+        copies = lambda x: jnp.broadcast_to(x, (self.num_critics, *x.shape))
+        return vmapped(self.options, name="critics")(copies(obs), copies(action))
