@@ -63,18 +63,20 @@ def dense_dot_general(lhs, rhs, dimension_numbers, precision=None, preferred_ele
     """``y = x @ W`` for a Dense layer (the last axis of ``x`` with the first of ``W``, no batch axes;
     anything else is refused), with derivatives dx = g·Wᵀ and dW = xᵀ·g written for XLA's CPU dot.
 
-    dx is a plain product with an explicitly transposed kernel, g·(Wᵀ): XLA folds a transpose into
-    the dot as an "NT" product, which its CPU (Eigen) kernel runs ~20 % slower than the plain "NN"
-    form, while Wᵀ is a kernel-sized copy (docs/BENCHMARKS.md §9). dW stays the folded xᵀ·g: there
-    the copy would be batch-sized and costs more than it saves.
+    Without ``accumulate`` (products in the network dtype), dx is a plain product with an explicitly
+    transposed kernel, g·(Wᵀ): XLA folds a transpose into the dot as an "NT" product, which its CPU
+    (Eigen) kernel runs ~20 % slower than the plain "NN" form, while Wᵀ is a kernel-sized copy
+    (docs/BENCHMARKS.md §9). dW stays the folded xᵀ·g: there the copy would be batch-sized and
+    costs more than it saves.
 
     ``accumulate`` (float32) with low-precision ``x`` and ``W`` (bfloat16): products summed in
     ``accumulate``, output in ``accumulate``; the derivatives are low-precision products too (as
     PyTorch's autocast computes them): the output cotangent g is rounded to the operands' type, dx
-    and dW are summed in ``accumulate`` and returned in the operands' type, and dW is xᵀ·g on an
-    explicitly transposed x (XLA's CPU backend has no bf16 kernel for the folded form outside its
-    YNNPACK fusions). ``precision`` and ``preferred_element_type`` from flax are ignored: the
-    product is in the operands' type, or summed in ``accumulate``."""
+    and dW are summed in ``accumulate`` and returned in the operands' type. dx is the folded g·Wᵀ
+    (a bf16 Wᵀ copy made the TD3 step ~9 % slower, §9) and dW is xᵀ·g on an explicitly transposed
+    x (XLA's CPU backend has no bf16 kernel for the folded form outside its YNNPACK fusions).
+    ``precision`` and ``preferred_element_type`` from flax are ignored: the product is in the
+    operands' type, or summed in ``accumulate``."""
     dense = (((lhs.ndim - 1,), (0,)), ((), ()))
     if tuple(map(tuple, dimension_numbers[0])) != dense[0] or any(dimension_numbers[1]):
         raise ValueError(f"dense_dot_general: only x @ W, got dimension_numbers {dimension_numbers}")
@@ -98,12 +100,13 @@ def _dense_matmul_fwd(x, w, accumulate):
 def _dense_matmul_bwd(accumulate, residuals, g):
     x, w = residuals
     g = g.astype(x.dtype)
-    # the barrier keeps XLA from folding the transpose back into the dot (see dense_dot_general)
-    dx = _matmul(g, lax.optimization_barrier(w.T), accumulate)
     rows_x, rows_g = x.reshape(-1, x.shape[-1]), g.reshape(-1, g.shape[-1])
+    # the barriers keep XLA from folding the transposes back into the dots (see dense_dot_general)
     if accumulate is None:
+        dx = _matmul(g, lax.optimization_barrier(w.T), None)
         dw = lax.dot_general(rows_x, rows_g, (((0,), (0,)), ((), ())))
     else:
+        dx = lax.dot_general(g, w, (((g.ndim - 1,), (1,)), ((), ())), preferred_element_type=accumulate)
         dw = _matmul(lax.optimization_barrier(rows_x.T), rows_g, accumulate)
     return dx.astype(x.dtype), dw.astype(w.dtype)
 
@@ -125,6 +128,11 @@ class NetworkOptions:
     learnable: bool = False
     dtype: Any = jnp.float32
     matmul_dtype: Any = None
+
+    @property
+    def low_precision_products(self) -> bool:
+        """Whether the Dense products round to ``matmul_dtype`` (set and not ``dtype``)."""
+        return self.matmul_dtype is not None and jnp.dtype(self.matmul_dtype) != jnp.dtype(self.dtype)
 
     def __post_init__(self):
         # normalise the mutable, unordered forms callers pass (list widths, dict parameters)
@@ -201,10 +209,12 @@ class TwinCritic(nn.Module):
     """Twin critics (Q₁, Q₂) as one module: parameters stacked on a leading axis of size
     ``num_critics`` (default 2), independently initialised; ``__call__(obs, action) -> (2, ...)``.
 
-    Each critic is handed its own (broadcast) copy of ``(obs, action)``: with one shared input XLA
-    merges the critics' first layers into one wider product whose output and derivative it must
-    then transpose into per-critic order; with a copy each, the layers stay one batched product
-    (the same numbers; 0.5–4 % less time per TD3 step on a CPU, docs/BENCHMARKS.md §9)."""
+    With products in the network dtype each critic is handed its own (broadcast) copy of
+    ``(obs, action)``: with one shared input XLA merges the critics' first layers into one wider
+    product whose output and derivative it must then transpose into per-critic order; with a copy
+    each, the layers stay one batched product (the same numbers; 0.5–4 % less time per TD3 step on
+    a CPU, docs/BENCHMARKS.md §9). With bfloat16 products (``matmul_dtype``) the shared input is the
+    faster form (by ~8 %, §9) and is kept."""
 
     options: NetworkOptions = NetworkOptions()
     num_critics: int = 2
@@ -215,9 +225,11 @@ class TwinCritic(nn.Module):
             _Critic,
             variable_axes={"params": 0},
             split_rngs={"params": True},
-            in_axes=0,
+            in_axes=None if self.options.low_precision_products else 0,
             out_axes=0,
             axis_size=self.num_critics,
         )
+        if self.options.low_precision_products:
+            return vmapped(self.options, name="critics")(obs, action)
         copies = lambda x: jnp.broadcast_to(x, (self.num_critics, *x.shape))
         return vmapped(self.options, name="critics")(copies(obs), copies(action))
