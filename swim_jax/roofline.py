@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jax._src.interpreters.partial_eval import dce_jaxpr  # pinned by requirements.lock
 from jax.extend.core import jaxprs_in_params
 
 from agents.replay import Transition
@@ -82,7 +83,9 @@ def _walk(jaxpr, out: list, heavy_branch: bool) -> None:
 
 def update_dots(agent) -> dict[bool, list[Dot]]:
     """``{False: dots of a critic-only update, True: dots of an update with the actor step}`` for
-    one lane of ``agent`` (a ``TD3``), read from the jaxpr of ``agent.update``."""
+    one lane of ``agent`` (a ``TD3``), read from the jaxpr of ``agent.update`` after dead-code
+    elimination (a custom derivative, e.g. ``agents.networks.dense_dot_general``, computes the
+    cotangent of every input, also of the batch, which XLA then drops as unused)."""
     b, o, a = agent.config.batch_size, agent.obs_dim, agent.action_dim
     z = lambda *shape: jnp.zeros(shape, agent.dtype)
     batch = Transition(z(b, o), z(b, a), z(b), z(b, o), z(b))
@@ -91,8 +94,9 @@ def update_dots(agent) -> dict[bool, list[Dot]]:
     for with_actor in (False, True):
         jaxpr = jax.make_jaxpr(lambda s, bt, k: agent.update(s, bt, k, jnp.asarray(with_actor)))(
             state, batch, jax.random.key(1))
+        live, _ = dce_jaxpr(jaxpr.jaxpr, [True] * len(jaxpr.jaxpr.outvars))
         dots: list[Dot] = []
-        _walk(jaxpr.jaxpr, dots, heavy_branch=with_actor)
+        _walk(live, dots, heavy_branch=with_actor)
         out[with_actor] = dots
     return out
 
