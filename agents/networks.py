@@ -212,8 +212,8 @@ class TwinCritic(nn.Module):
     With products in the network dtype each critic is handed its own (broadcast) copy of
     ``(obs, action)``: with one shared input XLA merges the critics' first layers into one wider
     product whose output and derivative it must then transpose into per-critic order; with a copy
-    each, the layers stay one batched product (the same numbers; 0.5–4 % less time per TD3 step on
-    a CPU, docs/BENCHMARKS.md §9). With bfloat16 products (``matmul_dtype``) the shared input is the
+    each, the layers stay one batched product (the same values up to float rounding; 0.5–4 % less
+    time per TD3 step on a CPU, docs/BENCHMARKS.md §9). With bfloat16 products (``matmul_dtype``) the shared input is the
     faster form (by ~8 %, §9) and is kept."""
 
     options: NetworkOptions = NetworkOptions()
