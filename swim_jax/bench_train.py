@@ -150,6 +150,22 @@ def lanes_program(cfg, lanes: int, sharding=None):
     return cfg, prog, state
 
 
+def interleaved_chunk_ratios(executables: dict, states: dict, rounds: int, steps: int, reference: str) -> dict:
+    """Run ``rounds`` interleaved rounds of every compiled chunk in ``executables`` (name → executable
+    of ``steps`` steps, called as ``exe(state, first_step, None)``; ``states`` holds each one's state
+    and is advanced). Returns name → (median ms per step, median over rounds of its step time / the
+    ``reference`` executable's in the same round)."""
+    times = {name: [] for name in executables}
+    for r in range(rounds):
+        for name, exe in executables.items():
+            t0 = time.perf_counter()
+            states[name] = jax.block_until_ready(exe(states[name], jnp.asarray(steps * (r + 1), jnp.int32), None)[0])
+            times[name].append((time.perf_counter() - t0) / steps * 1e3)
+    base = times[reference]
+    return {name: (statistics.median(t), statistics.median([a / b for a, b in zip(t, base)]))
+            for name, t in times.items()}
+
+
 def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overrides=(), log=print,
             shard: str = "auto", variants=(), with_roofline: bool = False) -> dict:
     """Compile one program per (lane count, placement, variant), then time ``repeats`` interleaved

@@ -242,6 +242,28 @@ def test_profile_reads_each_products_layout_and_flops_from_hlo():
     assert {"p0", "dot.1", "ynn_fusion.4", "dot.9"} <= bp.instruction_names(HLO_SNIPPET)
 
 
+def test_interleaved_chunk_ratios_advance_each_state_and_compare_within_rounds():
+    """bench_train.interleaved_chunk_ratios: every executable runs once per round with its own
+    state and the round's first step (steps · round), states are advanced in place, and the
+    reference's ratio to itself is exactly 1."""
+    import jax.numpy as jnp
+
+    from swim_jax.bench_train import interleaved_chunk_ratios
+
+    calls = []
+    def chunk(tag):
+        def run(state, first_step, _):
+            calls.append((tag, int(first_step)))
+            return (state + 1,)
+        return run
+
+    states = {"a": jnp.asarray(0), "b": jnp.asarray(10)}
+    out = interleaved_chunk_ratios({"a": chunk("a"), "b": chunk("b")}, states, rounds=3, steps=20, reference="a")
+    assert calls == [("a", 20), ("b", 20), ("a", 40), ("b", 40), ("a", 60), ("b", 60)]
+    assert int(states["a"]) == 3 and int(states["b"]) == 13
+    assert out["a"][1] == 1.0 and out["a"][0] > 0 and out["b"][1] > 0
+
+
 def test_profile_self_times_subtract_nested_operations_only():
     """A while (0–100 µs) holding a dot (10–40) and a fusion (50–70) whose Python frame (55–60) is
     not an operation; another thread's dot (0–25): self times 50, 30+25, 20; calls counted."""

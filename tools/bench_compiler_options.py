@@ -14,14 +14,12 @@ from XLA's defaults).
 from __future__ import annotations
 
 import argparse
-import statistics
-import time
 
 import jax
 import jax.numpy as jnp
 
 from swim_jax import config as cfgmod
-from swim_jax.bench_train import lanes_program, learning_phase_overrides
+from swim_jax.bench_train import interleaved_chunk_ratios, lanes_program, learning_phase_overrides
 
 OPTION_SETS = {
     "xla_default": {},
@@ -62,22 +60,14 @@ def main(argv=None) -> int:
     _, prog, state0 = lanes_program(cfgmod.resolve(args.config, learning_phase_overrides(steps, overrides)), args.lanes)
     init = lambda: jax.tree.map(jnp.copy, state0)
     lowered = prog.chunk_fn.lower(init(), jnp.asarray(0, jnp.int32), None)
-    exes, states, times = {}, {}, {}
+    exes, states = {}, {}
     for name, options in {**OPTION_SETS, **dict(args.options)}.items():
         exes[name] = lowered.compile(compiler_options=options) if options else lowered.compile()
         ynn = "__ynn_fusion" in exes[name].as_text()
         print(f"{name}: compiled, YNNPACK fusions {'present' if ynn else 'absent'}", flush=True)
         states[name] = jax.block_until_ready(exes[name](init(), jnp.asarray(0, jnp.int32), None)[0])
-        times[name] = []
-    for r in range(args.rounds):
-        for name, exe in exes.items():
-            t0 = time.perf_counter()
-            states[name] = jax.block_until_ready(exe(states[name], jnp.asarray(steps * (r + 1), jnp.int32), None)[0])
-            times[name].append((time.perf_counter() - t0) / steps * 1e3)
-    base = times["xla_default"]
-    for name, t in times.items():
-        ratio = statistics.median([a / b for a, b in zip(t, base)])
-        print(f"{name}: {statistics.median(t):.2f} ms per step, ratio vs XLA default {ratio:.3f}")
+    for name, (ms, ratio) in interleaved_chunk_ratios(exes, states, args.rounds, steps, "xla_default").items():
+        print(f"{name}: {ms:.2f} ms per step, ratio vs XLA default {ratio:.3f}")
     return 0
 
 

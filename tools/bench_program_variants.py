@@ -21,8 +21,6 @@ import argparse
 import contextlib
 import functools
 import hashlib
-import statistics
-import time
 
 import flax.linen as nn
 import jax
@@ -31,7 +29,7 @@ from jax import lax
 
 from agents import loop, networks, td3
 from swim_jax import config as cfgmod, programs
-from swim_jax.bench_train import lanes_program, learning_phase_overrides
+from swim_jax.bench_train import interleaved_chunk_ratios, lanes_program, learning_phase_overrides
 
 
 @contextlib.contextmanager
@@ -130,7 +128,7 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     overrides = learning_phase_overrides(args.steps, ["env.backend=mujoco", "matmul_dtype=full", *args.set])
     cfg = cfgmod.resolve(args.config, overrides)
-    exes, states, times = {}, {}, {}
+    exes, states = {}, {}
     for name in args.variants:
         programs._PROGRAMS.clear()
         jax.clear_caches()
@@ -140,16 +138,9 @@ def main(argv=None) -> int:
         digest = hashlib.sha256(exes[name].as_text().encode()).hexdigest()[:10]
         print(f"{name}: compiled, optimized HLO {digest}", flush=True)
         states[name] = jax.block_until_ready(exes[name](state, jnp.asarray(0, jnp.int32), None)[0])
-        times[name] = []
-    for r in range(args.rounds):
-        for name, exe in exes.items():
-            t0 = time.perf_counter()
-            states[name] = jax.block_until_ready(exe(states[name], jnp.asarray(args.steps * (r + 1), jnp.int32), None)[0])
-            times[name].append((time.perf_counter() - t0) / args.steps * 1e3)
-    base = times[args.variants[0]]
-    for name, t in times.items():
-        ratio = statistics.median([a / b for a, b in zip(t, base)])
-        print(f"{name}: {statistics.median(t):.2f} ms per step, ratio vs {args.variants[0]} {ratio:.3f}")
+    reference = args.variants[0]
+    for name, (ms, ratio) in interleaved_chunk_ratios(exes, states, args.rounds, args.steps, reference).items():
+        print(f"{name}: {ms:.2f} ms per step, ratio vs {reference} {ratio:.3f}")
     return 0
 
 
