@@ -229,7 +229,6 @@ class TwinCritic(nn.Module):
             out_axes=0,
             axis_size=self.num_critics,
         )
-        if self.options.low_precision_products:
-            return vmapped(self.options, name="critics")(obs, action)
-        copies = lambda x: jnp.broadcast_to(x, (self.num_critics, *x.shape))
-        return vmapped(self.options, name="critics")(copies(obs), copies(action))
+        if not self.options.low_precision_products:  # a broadcast copy per critic (see above)
+            obs, action = (jnp.broadcast_to(x, (self.num_critics, *x.shape)) for x in (obs, action))
+        return vmapped(self.options, name="critics")(obs, action)

@@ -5,7 +5,8 @@ inside the training program, even with a trivial host function; docs/BENCHMARKS.
 step as an XLA FFI custom call runs MuJoCo C directly on XLA's thread.
 
 :func:`library` compiles envs/native_ffi.cc once per (source, jaxlib, mujoco) into
-``$XDG_CACHE_HOME/swim-jax/native`` (default ``~/.cache``) with the system C++ compiler, against
+``$XDG_CACHE_HOME/swim-jax/native`` (default ``~/.cache``; libraries not loaded for 30 days are
+deleted when a new one is built, :func:`prune_cache`) with the system C++ compiler, against
 jaxlib's FFI headers and the MuJoCo library and headers of the installed ``mujoco`` wheel, loads it
 and registers its handlers with JAX (CPU only). It returns None, with the reason in
 :func:`unavailable_reason`, when no compiler is found or the build fails; the native backend then
@@ -25,6 +26,7 @@ import os
 import shutil
 import subprocess
 import tempfile
+import time
 from typing import Optional
 
 import jax
@@ -35,12 +37,41 @@ SOURCE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "native_ffi.cc
 STEP_TARGET = "swim_jax_native_step"
 RESET_TARGET = "swim_jax_native_reset"
 _REASON: list[str] = []
+STALE_DAYS = 30  # a library not loaded for this long is deleted when a new one is built (prune_cache)
 
 
 def cache_dir() -> str:
     """``$XDG_CACHE_HOME/swim-jax/native`` (default ``~/.cache/swim-jax/native``)."""
     base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
     return os.path.join(base, "swim-jax", "native")
+
+
+def prune_cache(keep: str, now: Optional[float] = None) -> list[str]:
+    """Delete from :func:`cache_dir` every other ``native_ffi-*.so`` not loaded for ``STALE_DAYS``
+    days (:func:`library` refreshes a library's modification time each time it loads it) and every
+    temporary ``*.so`` of an interrupted build older than a day; ``keep`` (a path) is never deleted.
+    Returns the deleted paths. Libraries of other checkouts or versions in use within the window stay."""
+    now = time.time() if now is None else now
+    removed = []
+    for path in glob.glob(os.path.join(cache_dir(), "*.so")):
+        if os.path.abspath(path) == os.path.abspath(keep):
+            continue
+        limit = STALE_DAYS * 86400 if os.path.basename(path).startswith("native_ffi-") else 86400
+        try:
+            if now - os.path.getmtime(path) > limit:
+                os.unlink(path)
+                removed.append(path)
+        except OSError:  # deleted by another process meanwhile
+            pass
+    return removed
+
+
+def _touch(path: str) -> None:
+    """Mark ``path`` as just loaded (for :func:`prune_cache`); a read-only cache is left as it is."""
+    try:
+        os.utime(path)
+    except OSError:
+        pass
 
 
 def _mujoco_library() -> str:
@@ -83,6 +114,9 @@ def library() -> Optional[ctypes.CDLL]:
     try:
         if not os.path.exists(path):
             _build(path)
+            prune_cache(keep=path)
+        else:
+            _touch(path)
         lib = ctypes.CDLL(path)
     except (OSError, RuntimeError) as e:
         _REASON.append(str(e).splitlines()[0] if str(e) else type(e).__name__)

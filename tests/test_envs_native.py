@@ -11,6 +11,8 @@ XLA FFI handler (envs/native_ffi.cc) where it builds; the Python callback is che
 Gymnasium too, and against the FFI call bit for bit.
 """
 
+import os
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -240,3 +242,22 @@ def test_a_failed_build_names_the_compiler_and_leaves_no_library(tmp_path, monke
     with pytest.raises(RuntimeError, match=r"^false failed"):
         native_ffi._build(str(tmp_path / "native.so"))
     assert list(tmp_path.iterdir()) == []
+
+
+def test_cache_pruning_deletes_only_stale_libraries_and_old_build_leftovers(tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    folder = native_ffi.cache_dir()
+    os.makedirs(folder)
+    now = 1_000_000_000.0
+    day = 86400.0
+    ages = {"native_ffi-current.so": 400 * day, "native_ffi-recent.so": (native_ffi.STALE_DAYS - 1) * day,
+            "native_ffi-stale.so": (native_ffi.STALE_DAYS + 1) * day, "tmpfresh.so": 0.5 * day,
+            "tmpold.so": 2 * day, "notes.txt": 400 * day}
+    for name, age in ages.items():
+        path = os.path.join(folder, name)
+        with open(path, "wb") as f:
+            f.write(b"x")
+        os.utime(path, (now - age, now - age))
+    removed = native_ffi.prune_cache(keep=os.path.join(folder, "native_ffi-current.so"), now=now)
+    assert sorted(os.path.basename(p) for p in removed) == ["native_ffi-stale.so", "tmpold.so"]
+    assert sorted(os.listdir(folder)) == ["native_ffi-current.so", "native_ffi-recent.so", "notes.txt", "tmpfresh.so"]

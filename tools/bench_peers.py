@@ -34,7 +34,9 @@ whole-program benchmark ``python -m swim_jax.bench train`` for the env's ``*_rel
 ``--lanes`` lanes (seeds of one vmapped program, every step an update), ``--chunk-steps`` = ``--steps``,
 timed for both env backends (MJX and ``env.backend=mujoco``) with float32 matmuls
 (``matmul_dtype=full``) and for native physics with bfloat16 matmuls (``matmul_dtype=bfloat16``, what
-``auto`` picks on a CPU with AVX-512 BF16 or AMX); its env-steps/s count all lanes. Ours runs with
+``auto`` picks on a CPU with AVX-512 BF16 or AMX), or only the rows named by ``--ours`` (e.g.
+``--ours native`` for the float32 native row alone: more rounds in the same time); its env-steps/s
+count all lanes. Ours runs with
 this script's own Python (``sys.executable``).
 
 For each env, each of ``--rounds`` rounds runs (a) the pytorch peer, (b) the cleanrl peer, (c) ours,
@@ -82,6 +84,10 @@ LABELS = {"pytorch": "PyTorch TD3 (Fujimoto, original)", "cleanrl": "cleanrl-sty
 PEER_MODULES = ("torch", "jax", "flax", "optax", "gymnasium", "mujoco")
 SINGLE_THREAD_ENV = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
 BF16 = "matmul_dtype=bfloat16"  # our bfloat16 rows (float32 rows: matmul_dtype=full)
+# our rows (``--ours``): name → the config overrides of that row of ``python -m swim_jax.bench train``
+OURS = {"mjx": ("env.backend=mjx", "matmul_dtype=full"),
+        "native": ("env.backend=mujoco", "matmul_dtype=full"),
+        "native-bf16": ("env.backend=mujoco", BF16)}
 
 
 class BadInput(Exception):
@@ -107,6 +113,8 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--our-processes", default="1",
                    help="also time ours as this many jax.distributed processes, one per core "
                         "(swim_jax.bench_processes; --lanes must divide by it; default 1 = not)")
+    p.add_argument("--ours", default=",".join(OURS),
+                   help=f"comma-separated rows of ours to time (default all); valid: {', '.join(OURS)}")
     p.add_argument("--procs", default=str(os.cpu_count() or 1),
                    help="concurrent single-threaded processes per peer (default os.cpu_count())")
     p.add_argument("--warmup", default="25000",
@@ -123,6 +131,9 @@ def validate(args: argparse.Namespace) -> dict:
     unknown = [e for e in envs if e not in CONFIGS]
     if not envs or unknown:
         raise BadInput(f"unknown env {', '.join(unknown) or repr(args.envs)}; valid: {', '.join(CONFIGS)}")
+    ours = [o.strip() for o in args.ours.split(",") if o.strip()]
+    if not ours or any(o not in OURS for o in ours) or len(set(ours)) < len(ours):
+        raise BadInput(f"--ours {args.ours!r}: expected distinct names from {', '.join(OURS)}")
     numbers = {}
     for name in ("steps", "rounds", "lanes", "procs", "warmup", "our_processes"):
         text = getattr(args, name)
@@ -146,7 +157,7 @@ def validate(args: argparse.Namespace) -> dict:
         last = (check.stderr.strip().splitlines() or ["?"])[-1]
         raise BadInput(f"--peer-python {peer_python!r} lacks the peers' packages ({last}); expected a Python with "
                        f"{', '.join(PEER_MODULES)} (see this script's docstring for the peers venv)")
-    return {"envs": envs, **numbers, "peer_python": peer_python, "out": args.out}
+    return {"envs": envs, "ours": ours, **numbers, "peer_python": peer_python, "out": args.out}
 
 
 def _tail(path: str, n: int = 15) -> str:
@@ -205,40 +216,62 @@ def run_peer(impl: str, env_id: str, s: dict) -> dict:
     }
 
 
+def ours_command(env_id: str, s: dict) -> list[str]:
+    """Our benchmark's command line (without ``--out``): the first of ``s["ours"]`` as ``--set``
+    overrides, every other one as a ``--variant``."""
+    first, *others = s["ours"]
+    cmd = [sys.executable, "-m", "swim_jax.bench", "train", "--config", CONFIGS[env_id],
+           "--lanes", str(s["lanes"]), "--chunk-steps", str(s["steps"]), "--repeats", "1"]
+    for override in OURS[first]:
+        cmd += ["--set", override]
+    for name in others:
+        cmd += ["--variant", ",".join(OURS[name])]
+    return cmd + ["--no-roofline"]
+
+
+def our_rows(res: dict, s: dict) -> dict:
+    """{key: {"env_steps_per_s", "label"}} from the JSON of :func:`ours_command`'s benchmark: its
+    base row is the first of ``s["ours"]``, each variant row the ``OURS`` entry it names; rows of
+    other lane counts are skipped."""
+    first, *others = s["ours"]
+    by_variant = {",".join(OURS[name]): name for name in others}
+    rows = {}
+    for row in res["rows"]:
+        if row["lanes"] != s["lanes"]:
+            continue
+        name = by_variant[row["variant"]] if row.get("variant") else first
+        backend = "mujoco" if name.startswith("native") else "mjx"
+        bf16 = name.endswith("bf16")
+        key = f"ours-{backend}" + ("-bf16" if bf16 else "") + (f"-{row['devices']}dev" if row["devices"] > 1 else "")
+        label = (f"swim-jax, {s['lanes']} lanes, {'native MuJoCo' if backend == 'mujoco' else 'MJX'}"
+                 + (", bfloat16 matmuls" if bf16 else ", float32") + (f", {row['devices']} devices" if row["devices"] > 1 else ""))
+        rows[key] = {"env_steps_per_s": row["env_steps_per_s"], "label": label}
+    return rows
+
+
 def run_ours(env_id: str, s: dict) -> dict:
-    """Run our whole-program benchmark once: MJX and native physics with float32 matmuls, native
-    with bfloat16 matmuls; one row each.
+    """Run our whole-program benchmark once, one row per ``s["ours"]`` entry (``OURS``: MJX or native
+    physics, float32 or bfloat16 matmuls), the first as the base config and the others as variants.
 
     ``python -m swim_jax.bench train --config <env>_relu --lanes L --chunk-steps N --repeats 1
-    --set matmul_dtype=full --variant env.backend=mujoco --variant env.backend=mujoco,matmul_dtype=bfloat16
-    --out <tmp>`` with this script's Python, JAX's default threading; returns {key: {"env_steps_per_s",
-    "label"}} and the JSON that benchmark wrote.
+    --set env.backend=mjx --set matmul_dtype=full --variant env.backend=mujoco,matmul_dtype=full
+    --variant env.backend=mujoco,matmul_dtype=bfloat16 --out <tmp>`` (all three rows) with this script's
+    Python, JAX's default threading; returns {key: {"env_steps_per_s", "label"}} and the JSON that
+    benchmark wrote.
     """
+    cmd = ours_command(env_id, s)
     with tempfile.TemporaryDirectory(prefix="ours-") as tmp:
-        cmd = [sys.executable, "-m", "swim_jax.bench", "train", "--config", CONFIGS[env_id],
-               "--lanes", str(s["lanes"]), "--chunk-steps", str(s["steps"]), "--repeats", "1",
-               "--set", "matmul_dtype=full", "--variant", "env.backend=mujoco",
-               "--variant", f"env.backend=mujoco,{BF16}", "--no-roofline", "--out", tmp]
-        proc = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
+        proc = subprocess.run(cmd + ["--out", tmp], capture_output=True, text=True, cwd=ROOT)
         files = sorted(glob.glob(os.path.join(tmp, "train-*.json")))
         if proc.returncode != 0 or not files:
             raise RuntimeError(f"our benchmark failed (exit {proc.returncode}): {shlex.join(cmd)}\n"
                                + "\n".join(proc.stderr.strip().splitlines()[-15:]))
         with open(files[-1]) as f:
             res = json.load(f)
-    rows = {}
-    for row in res["rows"]:
-        if row["lanes"] != s["lanes"]:
-            continue
-        backend = "mujoco" if "env.backend=mujoco" in (row.get("variant") or "") else "mjx"
-        bf16 = BF16 in (row.get("variant") or "")
-        key = f"ours-{backend}" + ("-bf16" if bf16 else "") + (f"-{row['devices']}dev" if row["devices"] > 1 else "")
-        label = (f"swim-jax, {s['lanes']} lanes, {'native MuJoCo' if backend == 'mujoco' else 'MJX'}"
-                 + (", bfloat16 matmuls" if bf16 else ", float32") + (f", {row['devices']} devices" if row["devices"] > 1 else ""))
-        rows[key] = {"env_steps_per_s": row["env_steps_per_s"], "label": label}
+    rows = our_rows(res, s)
     P = s["our_processes"]
     if P > 1:  # the same lanes as P processes, one per core (python -m swim_jax.train ... --num-processes P)
-        for dtype, suffix in (("matmul_dtype=full", ""), (BF16, "-bf16")):
+        for dtype, suffix in [(OURS[n][1], n[len("native"):]) for n in s["ours"] if n.startswith("native")]:
             args = train_args(CONFIGS[env_id], s["lanes"], s["steps"], 1, ("env.backend=mujoco", dtype))
             with tempfile.TemporaryDirectory(prefix="ours-processes-") as tmp:
                 rate = train_rate(args, tmp, "processes", sorted(os.sched_getaffinity(0))[:P])
