@@ -3,6 +3,7 @@ recorded inputs rounded to float32 (state, warm start, action: what a float32 en
 report the observation error against Gymnasium's float64 outputs (docs/ENVS.md, "Measured equivalence").
 
 Usage: python tools/f32_input_floor.py [ENV_ID]   (default HalfCheetah-v5; 1000 random + 1000 sine steps, seed 7)
+An unknown env id or extra arguments: one line on stderr naming the valid ids, exit status 2.
 """
 
 import sys
@@ -28,4 +29,8 @@ def main(env_id: str = "HalfCheetah-v5") -> None:
 
 
 if __name__ == "__main__":
-    main(*sys.argv[1:])
+    args = sys.argv[1:]
+    if len(args) > 1 or (args and args[0] not in envs.ENV_IDS):
+        print(f"f32_input_floor.py: error: expected at most one env id; valid: {', '.join(envs.ENV_IDS)}", file=sys.stderr)
+        sys.exit(2)
+    main(*args)

@@ -1,0 +1,106 @@
+"""The small tools under tools/: tools/compare_runs.py on synthetic run folders with known curves
+(expectations by hand, Welch's p against scipy's own test), tools/bench_peers.py's ``--ours`` row
+selection (command line, bad input, row mapping; the benchmark itself runs the peers for minutes with
+a second Python that has torch and is run by hand, docs/BENCHMARKS.md), and the bad-input line of
+tools/f32_input_floor.py."""
+
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from scipy import stats as scipy_stats
+
+from test_report import SWIM, SWISH, write_run
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(ROOT, "tools"))
+import bench_peers  # noqa: E402
+
+
+def run_tool(name, *args):
+    return subprocess.run([sys.executable, os.path.join(ROOT, "tools", name), *map(str, args)],
+                          capture_output=True, text=True, cwd=ROOT)
+
+def test_table_gives_the_scores_their_difference_and_welch_p(tmp_path):
+    # A = SWIM, B = SWISH at steps 0, 100, 200 (2 seeds). By hand: max 55 vs 35, final 45 vs 35,
+    # AUC (trapezoid / 200 steps) (40 + 35)/2 = 37.5 vs (17.5 + 25)/2 = 21.25.
+    a, b = write_run(tmp_path, "a", returns=SWIM), write_run(tmp_path, "b", act="swish", returns=SWISH)
+    done = run_tool("compare_runs.py", a, b)
+    assert done.returncode == 0, done.stderr
+    rows = {line.split("|")[1].strip(): [c.strip() for c in line.split("|")[2:-1]]
+            for line in done.stdout.splitlines()[2:]}
+    assert set(rows) == {"max", "final", "auc"}
+    expected = {"max": (55, 35, -20, ([60, 50], [30, 40])), "final": (45, 35, -10, ([40, 50], [30, 40])),
+                "auc": (37.5, 21.25, -16.25, ([40, 35], [17.5, 25]))}
+    for score, (mean_a, mean_b, diff, (per_seed_a, per_seed_b)) in expected.items():
+        cells = rows[score]
+        assert cells[0].startswith(f"{mean_a:.0f} [") and cells[1].startswith(f"{mean_b:.0f} [")
+        assert cells[2].startswith(f"{diff:+.0f} [")
+        p = scipy_stats.ttest_ind(per_seed_b, per_seed_a, equal_var=False).pvalue
+        assert cells[3] == f"{p:.2f}"
+
+
+@pytest.mark.parametrize("case", ["missing", "other_env", "other_grid", "one_arg"])
+def test_bad_input_is_one_line_and_exit_2(tmp_path, case):
+    a = write_run(tmp_path, "a")
+    if case == "missing":
+        args, needle = (a, tmp_path / "nope"), "nope: not a directory"
+    elif case == "other_env":
+        args, needle = (a, write_run(tmp_path, "b", env="Hopper-v5")), "env Hopper-v5 differs"
+    elif case == "other_grid":
+        longer = np.vstack([SWIM, SWIM[-1:]])  # 4 evaluations every 100 steps (total_steps 300)
+        args, needle = (a, write_run(tmp_path, "b", returns=longer, total_steps=300)), "the scores need the same grid"
+    else:
+        args, needle = (a,), "expected two run folders"
+    done = run_tool("compare_runs.py", *args)
+    assert done.returncode == 2 and done.stdout == ""
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1 and needle in lines[0], done.stderr
+
+
+def test_ours_command_puts_the_first_row_in_the_base_config_and_the_rest_in_variants():
+    s = {"ours": ["native", "mjx", "native-bf16"], "lanes": 5, "steps": 300}
+    cmd = bench_peers.ours_command("Walker2d-v5", s)
+    assert cmd[1:4] == ["-m", "swim_jax.bench", "train"]
+    text = " ".join(cmd)
+    assert "--config walker_relu --lanes 5 --chunk-steps 300 --repeats 1" in text
+    assert "--set env.backend=mujoco --set matmul_dtype=full" in text
+    assert "--variant env.backend=mjx,matmul_dtype=full --variant env.backend=mujoco,matmul_dtype=bfloat16" in text
+    assert cmd[-1] == "--no-roofline"
+    only = bench_peers.ours_command("Walker2d-v5", {**s, "ours": ["native"]})
+    assert "--variant" not in only
+
+
+def test_our_rows_names_each_row_by_the_entry_that_produced_it():
+    s = {"ours": ["native", "mjx", "native-bf16"], "lanes": 5}
+    res = {"rows": [
+        {"lanes": 5, "devices": 1, "variant": "", "env_steps_per_s": 300.0},
+        {"lanes": 5, "devices": 1, "variant": "env.backend=mjx,matmul_dtype=full", "env_steps_per_s": 200.0},
+        {"lanes": 5, "devices": 1, "variant": "env.backend=mujoco,matmul_dtype=bfloat16", "env_steps_per_s": 350.0},
+        {"lanes": 1, "devices": 1, "variant": "", "env_steps_per_s": 90.0},
+    ]}
+    rows = bench_peers.our_rows(res, s)
+    assert {k: v["env_steps_per_s"] for k, v in rows.items()} == {
+        "ours-mujoco": 300.0, "ours-mjx": 200.0, "ours-mujoco-bf16": 350.0}
+    assert rows["ours-mujoco"]["label"] == "swim-jax, 5 lanes, native MuJoCo, float32"
+    assert rows["ours-mjx"]["label"] == "swim-jax, 5 lanes, MJX, float32"
+    assert rows["ours-mujoco-bf16"]["label"] == "swim-jax, 5 lanes, native MuJoCo, bfloat16 matmuls"
+
+
+@pytest.mark.parametrize("ours", ["gpu", "native,native", ",", "native,fast"])
+def test_bad_ours_is_one_line_exit_2_and_nothing_written(ours, tmp_path, capsys):
+    out = tmp_path / "bench"
+    assert bench_peers.main(["--ours", ours, "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--ours" in err[0] and "mjx, native, native-bf16" in err[0]
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("args", [("Nope-v5",), ("Hopper-v5", "Walker2d-v5")])
+def test_f32_input_floor_bad_env_is_one_line_exit_2(args):
+    done = run_tool("f32_input_floor.py", *args)
+    assert done.returncode == 2 and done.stdout == ""
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1 and "valid: Hopper-v5, Walker2d-v5, HalfCheetah-v5" in lines[0], done.stderr
