@@ -12,7 +12,6 @@ than one JAX device and ``--shard``, the batch is split across devices.
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import platform
@@ -27,6 +26,7 @@ import numpy as np
 from envs.base import BACKENDS
 from envs.mjx_solver import check_implementation
 from envs.registry import ENV_IDS, make
+from swim_jax import cli_parser
 from swim_jax.timing import time_interleaved
 
 DEFAULT_ENVS = ("Hopper-v5", "Walker2d-v5", "HalfCheetah-v5", "Swimmer-v5", "Ant-v5")
@@ -136,7 +136,7 @@ def main(argv: Optional[Sequence[str]] = None) -> Dict:
     list of c, mjx; timed interleaved, one row each), --backends (comma list of mjx, mujoco),
     --shard, --out-dir.
     """
-    p = argparse.ArgumentParser(prog="swim_jax.bench envs", description=__doc__.split("\n")[0])
+    p = cli_parser.ArgumentParser(prog="python -m swim_jax.bench envs", description=__doc__.split("\n")[0])
     p.add_argument("--envs", default=",".join(DEFAULT_ENVS))
     p.add_argument("--batches", default="1,8,64,256,1024")
     p.add_argument("--scan-len", type=int, default=50)

@@ -17,7 +17,6 @@ rsqrt:
 
 from __future__ import annotations
 
-import argparse
 import datetime as _dt
 import json
 import os
@@ -31,6 +30,7 @@ import numpy as np
 
 from agents.replay import Transition
 from agents.td3 import TD3, ActivationConfig, TD3Config
+from swim_jax import cli_parser
 from swim_jax import activations as A
 from swim_jax.timing import calls_for, time_interleaved
 
@@ -306,7 +306,7 @@ def _fmt(v) -> str:
 def _parse(argv, prog: str, description: str, sections: bool):
     """Options of both benchmarks; ``sections=True`` adds the activations-only ones
     (--sections, --dtypes, --from-json). Bad values: one line, exit status 2."""
-    p = argparse.ArgumentParser(prog=prog, description=description)
+    p = cli_parser.ArgumentParser(prog=prog, description=description)
     p.add_argument("--quick", action="store_true", help="small sizes and few repeats (a smoke run, ~1 min)")
     p.add_argument("--repeats", type=int, default=None, help="timed repeats per candidate (default 21; quick 5)")
     p.add_argument(

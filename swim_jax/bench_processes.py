@@ -25,6 +25,7 @@ import sys
 import tempfile
 import time
 
+from swim_jax import cli_parser
 from swim_jax.bench_io import cpu_model, write_result
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -32,7 +33,7 @@ PLACEMENTS = ("one-process", "host-devices", "processes")
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m swim_jax.bench processes", description=__doc__.split("\n")[0])
+    p = cli_parser.ArgumentParser(prog="python -m swim_jax.bench processes", description=__doc__.split("\n")[0])
     p.add_argument("--config", default="cheetah_relu", help="training config (default cheetah_relu)")
     p.add_argument("--seeds", type=int, default=4, help="lanes (seeds); must divide by the cores (default 4)")
     p.add_argument("--chunk-steps", type=int, default=1000, help="learning steps per timed chunk (default 1000)")

@@ -40,6 +40,7 @@ import time
 import jax
 import jax.numpy as jnp
 
+from swim_jax import cli_parser
 from swim_jax import config as cfgmod
 from swim_jax import programs
 from swim_jax.bench_io import cpu_model, write_result
@@ -240,7 +241,7 @@ def markdown(res: dict, top: int = 20) -> str:
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m swim_jax.bench profile", description=__doc__.split("\n")[0])
+    p = cli_parser.ArgumentParser(prog="python -m swim_jax.bench profile", description=__doc__.split("\n")[0])
     p.add_argument("--config", default="cheetah_relu", help="training config (default cheetah_relu)")
     p.add_argument("--lanes", type=int, default=5, help="lanes (seeds) of the program (default 5)")
     p.add_argument("--steps", type=int, default=200, help="steps per profiled call (default 200)")

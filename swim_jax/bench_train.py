@@ -37,6 +37,7 @@ import jax
 import jax.numpy as jnp
 
 from agents.replay import Transition
+from swim_jax import cli_parser
 from swim_jax import config as cfgmod
 from swim_jax import programs, roofline, train
 from swim_jax.bench_io import write_result
@@ -46,7 +47,7 @@ from swim_jax.sharding import lane_sharding, place, set_host_devices
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m swim_jax.bench train", description=__doc__.split("\n")[0])
+    p = cli_parser.ArgumentParser(prog="python -m swim_jax.bench train", description=__doc__.split("\n")[0])
     p.add_argument("--config", default="cheetah_swim", help="training config (default cheetah_swim)")
     p.add_argument("--lanes", default="1,5", help="comma-separated lane counts (default 1,5)")
     p.add_argument("--chunk-steps", type=int, default=500, help="env steps per timed chunk (default 500)")

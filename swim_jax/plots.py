@@ -9,7 +9,6 @@ own derivative rule, i.e. Swim's custom rsqrt JVP), likewise. Written as PNG fil
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
@@ -21,6 +20,7 @@ import jax.numpy as jnp  # noqa: E402
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from swim_jax import cli_parser  # noqa: E402
 from swim_jax.activations import ACTIVATIONS, get_activation, legend_name  # noqa: E402
 
 PAPER = tuple(name for name, spec in ACTIVATIONS.items() if spec.paper)  # swim, swish, relu
@@ -74,7 +74,7 @@ def plot_activations(out_dir: Path) -> list[Path]:
 
 def main(argv: list[str] | None = None) -> int:
     """CLI entry: ``activations --out DIR``. Bad input: one line on stderr, exit status 2."""
-    p = argparse.ArgumentParser(prog="python -m swim_jax.plots", description=__doc__.split("\n")[0])
+    p = cli_parser.ArgumentParser(prog="python -m swim_jax.plots", description=__doc__.split("\n")[0])
     p.add_argument("figure", choices=["activations"], help="which figures to draw")
     p.add_argument("--out", required=True, help="output folder (created if missing)")
     args = p.parse_args(argv)

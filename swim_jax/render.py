@@ -38,6 +38,8 @@ import numpy as np
 import yaml
 from PIL import Image
 
+from swim_jax import cli_parser
+
 GL_BACKENDS = ("egl", "osmesa")
 _GL_PROBE = (
     "import mujoco\n"
@@ -283,13 +285,8 @@ def write_video(path: str, frames: list[np.ndarray], fps: float) -> None:
 # ------------------------------------------------------------------------------------------------
 
 
-class _Parser(argparse.ArgumentParser):
-    def error(self, message):
-        self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
-
-
 def parse_args(argv):
-    p = _Parser(prog="python -m swim_jax.render", description=__doc__,
+    p = cli_parser.ArgumentParser(prog="python -m swim_jax.render", description=__doc__,
                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("run_dir", metavar="RUN_DIR")
     p.add_argument("--seed", type=int, default=0, help="seed index of the run (default 0)")

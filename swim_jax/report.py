@@ -38,7 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 import yaml
 
-from swim_jax import paper_ref, stats
+from swim_jax import cli_parser, paper_ref, stats
 from swim_jax.bench_io import BenchError, load_bench, speedup_pct
 from swim_jax.report_figure import (LEARNING_PANELS, display_name, figure4, group_colors, learning_figure,
                                     parameter_series, sweep_figure)
@@ -513,13 +513,8 @@ def summary_lines(res: dict) -> list[str]:
 # ------------------------------------------------------------------------------------------------
 
 
-class _Parser(argparse.ArgumentParser):
-    def error(self, message):  # one line, exit 2
-        self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
-
-
 def parse_args(argv):
-    p = _Parser(prog="python -m swim_jax.report", description=__doc__,
+    p = cli_parser.ArgumentParser(prog="python -m swim_jax.report", description=__doc__,
                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("runs", nargs="*", metavar="RUN_DIR", help="run folders from python -m swim_jax.train")
     p.add_argument("--out", required=True, help="output folder (must not exist or be empty, unless --force)")

@@ -16,7 +16,6 @@ one core (a child process pinned to one CPU with XLA's intra-op threading off), 
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import statistics
@@ -32,6 +31,7 @@ from jax._src.interpreters.partial_eval import dce_jaxpr  # pinned by requiremen
 from jax.extend.core import jaxprs_in_params
 
 from agents.replay import Transition
+from swim_jax import cli_parser
 from swim_jax import config as cfgmod
 from swim_jax.programs import build
 
@@ -161,7 +161,7 @@ def one_core_roofline(config: str, overrides=(), timeout: float = 600.0) -> dict
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="python -m swim_jax.roofline", description=__doc__.split("\n")[0])
+    p = cli_parser.ArgumentParser(prog="python -m swim_jax.roofline", description=__doc__.split("\n")[0])
     p.add_argument("--config", default="cheetah_relu")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     p.add_argument("--pin-one-core", action="store_true", help="pin this process to one CPU first")

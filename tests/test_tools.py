@@ -104,3 +104,17 @@ def test_f32_input_floor_bad_env_is_one_line_exit_2(args):
     assert done.returncode == 2 and done.stdout == ""
     lines = done.stderr.strip().splitlines()
     assert len(lines) == 1 and "valid: Hopper-v5, Walker2d-v5, HalfCheetah-v5" in lines[0], done.stderr
+
+
+@pytest.mark.parametrize("command", [
+    ["-m", "swim_jax.bench", "activations"], ["-m", "swim_jax.bench", "rsqrt"], ["-m", "swim_jax.bench", "envs"],
+    ["-m", "swim_jax.bench", "train"], ["-m", "swim_jax.bench", "processes"], ["-m", "swim_jax.bench", "profile"],
+    ["-m", "swim_jax.plots"], ["-m", "swim_jax.roofline"], ["-m", "swim_jax.report"], ["-m", "swim_jax.render"],
+    ["tools/bench_program_variants.py"], ["tools/bench_compiler_options.py"], ["tools/bench_native_host.py"],
+    ["tools/bench_peers.py"],
+], ids=lambda c: " ".join(c).replace("-m ", ""))
+def test_every_command_lines_usage_error_is_one_line_and_exit_2(command):
+    done = subprocess.run([sys.executable, *command, "--no-such-option"], capture_output=True, text=True, cwd=ROOT)
+    lines = done.stderr.strip().splitlines()
+    assert done.returncode == 2 and len(lines) == 1, done.stderr
+    assert ": error: " in lines[0]  # the unknown option, or the required arguments it lacks

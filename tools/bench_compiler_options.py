@@ -18,6 +18,7 @@ import argparse
 import jax
 import jax.numpy as jnp
 
+from swim_jax import cli_parser
 from swim_jax import config as cfgmod
 from swim_jax.bench_train import interleaved_chunk_ratios, lanes_program, learning_phase_overrides
 
@@ -45,7 +46,7 @@ def _option_set(text: str) -> tuple[str, dict]:
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p = cli_parser.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--config", default="cheetah_relu")
     p.add_argument("--rounds", type=int, default=10)
     p.add_argument("--steps", type=int, default=200)

@@ -11,7 +11,6 @@
 
 from __future__ import annotations
 
-import argparse
 import statistics
 import time
 
@@ -20,6 +19,7 @@ import jax.numpy as jnp
 import numpy as np
 
 import envs
+from swim_jax import cli_parser
 
 
 def callback_floor_ms(calls: int = 1000, repeats: int = 10) -> float:
@@ -71,7 +71,7 @@ def threads_ms(env_id: str, lanes: int, steps: int, rounds: int) -> dict:
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p = cli_parser.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--rounds", type=int, default=15)
     p.add_argument("--steps", type=int, default=200)
     p.add_argument("--lanes", type=int, default=5)

@@ -74,6 +74,7 @@ ROOT = os.path.dirname(TOOLS)
 if TOOLS not in sys.path:
     sys.path.insert(0, TOOLS)
 from bench_pytorch_td3 import CONFIGS  # noqa: E402  env id → our *_relu config
+from swim_jax import cli_parser  # noqa: E402
 from swim_jax.bench_io import cpu_model, write_result  # noqa: E402
 from swim_jax.bench_processes import train_args, train_rate  # noqa: E402
 
@@ -94,17 +95,9 @@ class BadInput(Exception):
     """A user error: reported as one line on stderr with exit status 2."""
 
 
-class _Parser(argparse.ArgumentParser):
-    """argparse whose errors are one line on stderr and exit status 2."""
-
-    def error(self, message):
-        print(f"bench_peers.py: error: {message}", file=sys.stderr)
-        sys.exit(2)
-
-
 def parse_args(argv=None) -> argparse.Namespace:
     """The command line; numbers and envs are checked by :func:`validate`."""
-    p = _Parser(description=__doc__.split("\n")[0])
+    p = cli_parser.ArgumentParser(prog="bench_peers.py", description=__doc__.split("\n")[0])
     p.add_argument("--envs", default="HalfCheetah-v5,Hopper-v5,Walker2d-v5,Swimmer-v5",
                    help=f"comma-separated env ids; valid: {', '.join(CONFIGS)}")
     p.add_argument("--steps", default="1000", help="timed learning-phase steps per process / chunk (default 1000)")

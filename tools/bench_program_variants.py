@@ -28,6 +28,7 @@ import jax.numpy as jnp
 from jax import lax
 
 from agents import loop, networks, td3
+from swim_jax import cli_parser
 from swim_jax import config as cfgmod, programs
 from swim_jax.bench_train import interleaved_chunk_ratios, lanes_program, learning_phase_overrides
 
@@ -117,7 +118,7 @@ def _variants(text: str) -> list[str]:
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p = cli_parser.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--config", default="cheetah_relu")
     p.add_argument("--lanes", type=int, default=5)
     p.add_argument("--rounds", type=int, default=16)
