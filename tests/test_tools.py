@@ -118,3 +118,17 @@ def test_every_command_lines_usage_error_is_one_line_and_exit_2(command):
     lines = done.stderr.strip().splitlines()
     assert done.returncode == 2 and len(lines) == 1, done.stderr
     assert ": error: " in lines[0]  # the unknown option, or the required arguments it lacks
+
+
+def test_peer_summary_pairs_each_round_with_that_rounds_best_peer():
+    rates = {"pytorch": [100.0, 180.0, 150.0], "cleanrl": [120.0, 150.0, 200.0], "ours-mujoco": [150.0, 200.0, 210.0]}
+    labels = {k: k for k in rates}
+    summary, best = bench_peers.summarize(rates, labels)
+    assert best == 150.0  # max of the medians: pytorch 150, cleanrl 150
+    ours = summary["ours-mujoco"]
+    assert ours["median"] == 200.0 and ours["ratio_vs_best_peer"] == pytest.approx(200 / 150)
+    assert ours["round_ratios"] == pytest.approx([150 / 120, 200 / 180, 210 / 200])
+    assert ours["median_round_ratio"] == pytest.approx(200 / 180)
+    assert summary["cleanrl"]["round_ratios"] is None and summary["cleanrl"]["ratio_vs_best_peer"] is None
+    table = bench_peers.markdown("Hopper-v5", {"summary": summary}, {"steps": 10, "rounds": 3})
+    assert "| ours-mujoco | 200 (150–210) | 1.33× | 1.25, 1.11, 1.05 (1.11×) |" in table

@@ -42,7 +42,8 @@ this script's own Python (``sys.executable``).
 For each env, each of ``--rounds`` rounds runs (a) the pytorch peer, (b) the cleanrl peer, (c) ours,
 one after the other, the order rotated from round to round so slow drifts of the machine (heat,
 background load) do not favour one program. Reported per env and program: the median over rounds of
-the aggregate env-steps/s, its min–max, and for ours the ratio ours / best peer (medians). The JSON
+the aggregate env-steps/s, its min–max, and for ours the ratio ours / best peer (medians) and the
+paired ratios: ours / the best peer of the same round, per round and their median. The JSON
 written to ``<out>/peers-<UTC stamp>.json`` has every raw number (each process's JSON line, each of
 our bench runs' JSON), the CPU model (lscpu), date and command line. Also recorded per peer run: the
 wall-clock aggregate P·steps / (last end − first start), the overlap of the P timed windows and the
@@ -297,22 +298,39 @@ def bench_env(env_id: str, s: dict, log=print) -> dict:
                     log(f"{tag} {key}: {row['env_steps_per_s']:.1f} env-steps/s ({s['lanes']} lanes)")
             this[prog] = res
         rounds.append(this)
-    summary = {k: {"label": labels[k], "median": statistics.median(v), "min": min(v), "max": max(v), "values": v}
-               for k, v in rates.items()}
-    best_peer = max((summary[p]["median"] for p in PEERS if p in summary), default=None)
-    for k, v in summary.items():
-        v["ratio_vs_best_peer"] = (v["median"] / best_peer) if (best_peer and k not in PEERS) else None
+    summary, best_peer = summarize(rates, labels)
     return {"rounds": rounds, "summary": summary, "best_peer_median": best_peer}
 
 
+def summarize(rates: dict, labels: dict) -> tuple[dict, float | None]:
+    """Per program: the median, min, max of its per-round rates (``rates[key]``, one per round);
+    for ours also the ratio of medians to the best peer's median and the per-round ratios to the best
+    peer OF THAT ROUND (paired: a drift of the machine between rounds cancels) with their median.
+    Returns (summary, best peer's median)."""
+    summary = {k: {"label": labels[k], "median": statistics.median(v), "min": min(v), "max": max(v), "values": v}
+               for k, v in rates.items()}
+    best_peer = max((summary[p]["median"] for p in PEERS if p in summary), default=None)
+    peers = [rates[p] for p in PEERS if p in rates]
+    best_per_round = [max(r) for r in zip(*peers)] if peers else []
+    for k, v in summary.items():
+        ours = k not in PEERS and best_peer
+        v["ratio_vs_best_peer"] = (v["median"] / best_peer) if ours else None
+        v["round_ratios"] = [x / b for x, b in zip(v["values"], best_per_round)] if ours else None
+        v["median_round_ratio"] = statistics.median(v["round_ratios"]) if ours else None
+    return summary, best_peer
+
+
 def markdown(env_id: str, res: dict, s: dict) -> str:
-    """One env's Markdown table: program, env-steps/s median (min–max), ratio ours / best peer."""
+    """One env's Markdown table: program, env-steps/s median (min–max), ratio ours / best peer (of the
+    medians, and per round with its median)."""
     lines = [f"**{env_id}** — learning phase, {s['steps']} timed steps, {s['rounds']} round(s), "
              f"medians (min–max) of aggregate env-steps/s",
-             "", "| program | env-steps/s | ratio ours / best peer |", "|---|---|---|"]
+             "", "| program | env-steps/s | ratio ours / best peer | per round (median) |", "|---|---|---|---|"]
     for key, v in res["summary"].items():
         ratio = "—" if v["ratio_vs_best_peer"] is None else f"{v['ratio_vs_best_peer']:.2f}×"
-        lines.append(f"| {v['label']} | {v['median']:.0f} ({v['min']:.0f}–{v['max']:.0f}) | {ratio} |")
+        rounds = ("—" if v.get("round_ratios") is None else
+                  f"{', '.join(f'{x:.2f}' for x in v['round_ratios'])} ({v['median_round_ratio']:.2f}×)")
+        lines.append(f"| {v['label']} | {v['median']:.0f} ({v['min']:.0f}–{v['max']:.0f}) | {ratio} | {rounds} |")
     return "\n".join(lines)
 
 
