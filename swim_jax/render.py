@@ -287,7 +287,7 @@ def write_video(path: str, frames: list[np.ndarray], fps: float) -> None:
 
 def parse_args(argv):
     p = cli_parser.ArgumentParser(prog="python -m swim_jax.render", description=__doc__,
-                formatter_class=argparse.RawDescriptionHelpFormatter)
+                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("run_dir", metavar="RUN_DIR")
     p.add_argument("--seed", type=int, default=0, help="seed index of the run (default 0)")
     p.add_argument("--out", required=True, help="output video, .gif or .mp4")

@@ -515,7 +515,7 @@ def summary_lines(res: dict) -> list[str]:
 
 def parse_args(argv):
     p = cli_parser.ArgumentParser(prog="python -m swim_jax.report", description=__doc__,
-                formatter_class=argparse.RawDescriptionHelpFormatter)
+                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("runs", nargs="*", metavar="RUN_DIR", help="run folders from python -m swim_jax.train")
     p.add_argument("--out", required=True, help="output folder (must not exist or be empty, unless --force)")
     p.add_argument("--bench", action="append", default=[], metavar="FILE",

@@ -23,6 +23,7 @@ def run_tool(name, *args):
     return subprocess.run([sys.executable, os.path.join(ROOT, "tools", name), *map(str, args)],
                           capture_output=True, text=True, cwd=ROOT)
 
+
 def test_table_gives_the_scores_their_difference_and_welch_p(tmp_path):
     # A = SWIM, B = SWISH at steps 0, 100, 200 (2 seeds). By hand: max 55 vs 35, final 45 vs 35,
     # AUC (trapezoid / 200 steps) (40 + 35)/2 = 37.5 vs (17.5 + 25)/2 = 21.25.
