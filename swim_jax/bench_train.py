@@ -10,9 +10,14 @@ process so machine noise hits every L alike. Reported per L (medians, min–max)
     ms per step (all lanes) = 1000 · t_chunk / chunk_steps,
     cost ratio = t_chunk(L) / (L · t_chunk(1))   (1 = lanes cost as much as separate runs).
 
+On a CPU the program runs as ``swim_jax.train`` runs it: with ``lane_groups=true`` and several host
+CPU devices (``--host-devices N``) the lanes as one group per device, each group its own program
+(swim_jax/lane_groups.py), e.g. ``--host-devices 2 --variant lane_groups=true`` times both forms
+interleaved.
 With several devices (GPUs, or ``--host-devices N`` host CPU devices) ``--shard both`` times each
 L twice in the same process, lanes on one device and lanes split over all devices
-(``swim_jax.sharding``), so the effect of sharding is a ratio measured interleaved. Likewise each
+(``swim_jax.sharding``; rows without lane groups), so the effect of sharding is a ratio measured
+interleaved. Likewise each
 ``--variant KEY=VALUE[,KEY=VALUE]`` adds a copy of every program built with those config overrides
 (e.g. ``--variant matmul_dtype=bfloat16``), timed interleaved with the plain ones.
 
@@ -39,7 +44,7 @@ import jax.numpy as jnp
 from agents.replay import Transition
 from swim_jax import cli_parser
 from swim_jax import config as cfgmod
-from swim_jax import programs, roofline, train
+from swim_jax import lane_groups, programs, roofline, train
 from swim_jax.bench_io import write_result
 from swim_jax.config import ConfigError
 # importing these does not start the JAX backend, so --host-devices (XLA_FLAGS) still applies
@@ -60,7 +65,8 @@ def _parser() -> argparse.ArgumentParser:
                    help="auto: split lanes over the devices when they divide evenly (as train does); "
                         "off: one device; both: time each lane count both ways")
     p.add_argument("--host-devices", type=int, default=0,
-                   help="ask XLA for N host CPU devices (sets XLA_FLAGS before JAX starts)")
+                   help="ask XLA for N host CPU devices (sets XLA_FLAGS before JAX starts); rows with "
+                        "lane_groups=true need at least 2")
     p.add_argument("--roofline", action=argparse.BooleanOptionalAction, default=True,
                    help="also measure the update's matmul roofline on one core and on all cores "
                         "(swim_jax.roofline) and report each row's fraction of cores × one-core roofline")
@@ -99,16 +105,24 @@ def update_flops(agent) -> float:
 
 
 def _candidates(lanes: list[int], variant_cfgs: dict, shard: str) -> list[tuple]:
-    """(lanes, sharding or None, variant) for every program to time: each lane count on one
-    device and/or split over the devices (``shard``), each with every variant."""
+    """(lanes, sharding or None, variant, lane groups or None) for every program to time: each lane
+    count as lane groups where its variant's config has them and there are several host CPU devices
+    (as swim_jax.train places it), else on one device and/or split over the devices (``shard``),
+    each with every variant."""
     candidates = []
     for L in lanes:
         sh, _why = lane_sharding(L)
-        for v in variant_cfgs:
+        for v, cfg in variant_cfgs.items():
+            groups = None
+            if cfg.lane_groups and jax.default_backend() == "cpu":
+                groups = lane_groups.plan(L, jax.local_devices())
+            if groups is not None:
+                candidates.append((L, None, v, groups))
+                continue
             if shard in ("off", "both") or sh is None:
-                candidates.append((L, None, v))
+                candidates.append((L, None, v, None))
             if shard in ("auto", "both") and sh is not None:
-                candidates.append((L, sh, v))
+                candidates.append((L, sh, v, None))
     return candidates
 
 
@@ -117,12 +131,14 @@ def _row(c, times: list[float], compile_s: float, one_lane_s, chunk_steps: int, 
     """One table row: medians and rates of candidate ``c`` = (lanes, sharding, variant) from its
     chunk times; ``one_lane_s``: the median chunk time of the 1-lane program of its variant (or
     None); ``executables``/``added``: its chunk's compiled executables and those added while timing."""
-    L, sh, v = c
+    L, sh, v, groups = c
     med = statistics.median(times)
     rate = flops * chunk_steps * L / med / 1e9
     return {
-        "lanes": L, "devices": len(sh.mesh.devices.flat) if sh is not None else 1, "variant": v,
-        "median_s": med, "min_s": min(times), "max_s": max(times),
+        "lanes": L, "variant": v,
+        "devices": len(sh.mesh.devices.flat) if sh is not None else len(groups.devices) if groups is not None else 1,
+        "lane_groups": groups.describe() if groups is not None else None,
+        "median_s": med, "min_s": min(times), "max_s": max(times), "chunk_s": list(times),
         "env_steps_per_s": chunk_steps * L / med, "env_steps_per_s_per_lane": chunk_steps / med,
         "ms_per_step": 1000 * med / chunk_steps, "compile_plus_first_chunk_s": compile_s,
         "cost_ratio_vs_1": (med / (L * one_lane_s)) if one_lane_s else None,
@@ -174,20 +190,26 @@ def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overr
     bench = learning_phase_overrides(chunk_steps, overrides)
     variant_cfgs = {v: cfgmod.resolve(config, [*bench, *(v.split(",") if v else [])]) for v in ("", *variants)}
     candidates = _candidates(lanes, variant_cfgs, shard)
-    progs, states, compile_s, cfgs = {}, {}, {}, {}
+    progs, states, compile_s, cfgs, grouped = {}, {}, {}, {}, {}
 
     def run_chunk(c, st, index):  # as the training loop runs it (calls of progress_steps steps)
-        return jax.block_until_ready(train.train_chunk(cfgs[c], progs[c].chunk_fn, st, index, (), c[1], lambda _: None)[0])
+        return jax.block_until_ready(train.train_chunk(cfgs[c], progs[c].chunk_fn, st, index, (), c[1],
+                                                       lambda _: None, grouped[c])[0])
 
     for c in candidates:
-        L, sh, v = c
+        L, sh, v, groups = c
         cfgs[c], progs[c], st = lanes_program(variant_cfgs[v], L, sh)
+        grouped[c] = lane_groups.GroupedChunks(groups, progs[c].chunk_fn) if groups is not None else None
         t0 = time.perf_counter()
         states[c] = run_chunk(c, st, 0)
         compile_s[c] = time.perf_counter() - t0
-        log(f"lanes {L}{' sharded' if sh else ''}{' ' + v if v else ''}: compiled + first chunk {compile_s[c]:.1f} s")
+        how = " sharded" if sh else f" as {groups.describe()}" if groups else ""
+        log(f"lanes {L}{how}{' ' + v if v else ''}: compiled + first chunk {compile_s[c]:.1f} s")
     # one jitted chunk serves every lane count and placement of a config (one executable each)
-    warm_sizes = {c: progs[c].chunk_fn._cache_size() for c in candidates}
+    def executables(c):  # compiled chunk executables of candidate c (its groups' are all made before chunk 0)
+        return progs[c].chunk_fn._cache_size() + (grouped[c].executables if grouped[c] else 0)
+
+    warm_sizes = {c: executables(c) for c in candidates}
     times = {c: [] for c in candidates}
     for r in range(repeats):
         for c in candidates:
@@ -202,7 +224,7 @@ def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overr
         if c[0] == 1 and c[2] not in one:
             one[c[2]] = statistics.median(times[c])
     rows = [_row(c, times[c], compile_s[c], one.get(c[2]), chunk_steps, flops, roof,
-                 progs[c].chunk_fn._cache_size(), progs[c].chunk_fn._cache_size() - warm_sizes[c])
+                 executables(c), executables(c) - warm_sizes[c])
             for c in candidates]
     base = variant_cfgs[""]
     return {

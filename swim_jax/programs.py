@@ -1,6 +1,7 @@
 """The training program of a config: env, agent and the jitted functions, built once per process.
 
-``placement(cfg)`` decides how the lanes spread over the devices (of every process), ``programs(cfg,
+``placement(cfg)`` decides how the lanes spread over the devices (of every process: a sharding of one
+program, or on a CPU one program per group of lanes, swim_jax/lane_groups.py), ``programs(cfg,
 sharding)`` builds (or reuses) the env, eval env, TD3 agent and the three jitted functions of
 agents/loop.py for that placement, and ``lanes(cfg, prog, sharding)`` gives their per-lane inputs
 (seed ids, sweep values). ``swim_jax.train`` runs them; ``swim_jax.render``/``roofline`` use
@@ -22,7 +23,7 @@ import envs
 from agents import loop
 from agents.td3 import TD3
 from swim_jax import config as cfgmod
-from swim_jax import hardware
+from swim_jax import hardware, lane_groups
 from swim_jax.config import Config
 from swim_jax.sharding import lane_sharding, over_lanes, place
 
@@ -157,17 +158,39 @@ class Lanes:
     init_args: tuple  # (base_seed, seed_ids[, hparams]): ``init_fn``'s arguments
     sweep_args: tuple  # (hparams,) with a sweep, () without: the extra argument of chunk_fn/eval_fn
     sharding: object  # the lane axis' sharding over devices, or None (one device)
+    groups: lane_groups.LaneGroups | None = None  # one program per group of lanes (CPU), or None
+
+
+def auto_host_devices(cfg: Config) -> int:
+    """Host CPU devices to ask for when ``host_devices`` is 0: with ``lane_groups=true`` and one
+    process on this machine, one per usable core and at most one per lane (0: leave JAX's default
+    of one, i.e. with one core or one lane, or when ``XLA_FLAGS`` already sets a count). Harmless on
+    a GPU machine (it only shapes the CPU platform)."""
+    if cfg.host_devices or not cfg.lane_groups or cfg.local_processes > 1:
+        return 0
+    if "--xla_force_host_platform_device_count=" in os.environ.get("XLA_FLAGS", ""):
+        return 0
+    n = min(len(os.sched_getaffinity(0)), num_lanes(cfg))
+    return n if n >= 2 else 0
 
 
 def placement(cfg: Config, log: Callable[[str], None]):
-    """The sharding of ``cfg``'s lane axis over the devices of every process, or None (all lanes
-    on one device); ``log`` gets how (when there are several devices) and a warning when
-    ``host_devices`` asks for more than JAX started with. ConfigError when several processes run
-    and the lanes cannot be split over all their devices."""
+    """How ``cfg``'s lanes spread over the devices: ``(sharding, groups)``. On a CPU backend in one
+    process with several host devices and ``lane_groups=true``, ``groups`` (swim_jax/lane_groups.py:
+    one program per group of lanes, one group per device) and no sharding; otherwise no groups and
+    the sharding of the lane axis over the devices of every process, or None (all lanes on one
+    device). ``log`` gets how (when there are several devices) and a warning when ``host_devices``
+    asks for more than JAX started with. ConfigError when several processes run and the lanes
+    cannot be split over all their devices."""
     count = num_lanes(cfg)
     if cfg.host_devices and jax.devices()[0].platform == "cpu" and jax.local_device_count() != cfg.host_devices:
         log(f"warning: host_devices={cfg.host_devices} but JAX started with {jax.local_device_count()} devices; "
             f"set XLA_FLAGS=--xla_force_host_platform_device_count={cfg.host_devices} before Python starts")
+    if cfg.lane_groups and jax.process_count() == 1 and jax.default_backend() == "cpu":
+        groups = lane_groups.plan(count, jax.local_devices())
+        if groups is not None:
+            log(f"lanes: {groups.describe()}")
+            return None, groups
     sharding, how = lane_sharding(count) if cfg.shard_lanes else (None, "shard_lanes=false")
     if jax.process_count() > 1:
         if sharding is None:
@@ -177,18 +200,18 @@ def placement(cfg: Config, log: Callable[[str], None]):
         how += f" in {jax.process_count()} processes"
     if jax.device_count() > 1:
         log(f"lanes: {how}")
-    return sharding
+    return sharding, None
 
 
-def lanes(cfg: Config, prog: Programs, sharding) -> Lanes:
-    """The lanes of ``cfg`` for ``prog`` (built for ``sharding``, from :func:`placement`)."""
+def lanes(cfg: Config, prog: Programs, sharding, groups: lane_groups.LaneGroups | None = None) -> Lanes:
+    """The lanes of ``cfg`` for ``prog`` (built for ``sharding``; both from :func:`placement`)."""
     count = num_lanes(cfg)
     seed_ids, hparams_np = lane_inputs(cfg, prog.agent.dtype)
     on_lanes = jnp.asarray if sharding is None else (lambda x: place(x, sharding))  # NumPy → device arrays
     hparams = {k: on_lanes(v) for k, v in hparams_np.items()}
     sweep_args = (hparams,) if hparams else ()  # no sweep: the functions' 2-/3-argument signatures
     init_args = (jnp.asarray(cfg.seed, jnp.uint32), on_lanes(seed_ids), *sweep_args)
-    return Lanes(count, seed_ids, init_args, sweep_args, sharding)
+    return Lanes(count, seed_ids, init_args, sweep_args, sharding, groups)
 
 
 def compilation_cache_dir() -> str:

@@ -40,7 +40,7 @@ from swim_jax import learning_log
 from swim_jax.activations import ACTIVATIONS, ActivationSetting, label_activation, parameter_defaults
 
 POOL_IGNORED_KEYS = frozenset({"seeds", "first_seed", "seed", "name", "out_dir", "keep_checkpoints",
-                               "shard_lanes", "host_devices"})  # placement only, same experiment
+                               "shard_lanes", "host_devices", "lane_groups"})  # placement only, same experiment
 
 
 class RunError(ValueError):

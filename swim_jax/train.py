@@ -61,8 +61,9 @@ from swim_jax import distributed, learning_log, local_processes, outputs
 from swim_jax.checkpoint import Checkpointer, latest_complete_step
 from swim_jax.config import Config, ConfigError
 from swim_jax.distributed import to_host
-from swim_jax.programs import (Lanes, Programs, backends_started, lanes as program_lanes, matmul_dtype, num_lanes,
-                               placement, programs, use_compilation_cache)
+from swim_jax.lane_groups import GroupedChunks
+from swim_jax.programs import (Lanes, Programs, auto_host_devices, backends_started, lanes as program_lanes,
+                               matmul_dtype, num_lanes, placement, programs, use_compilation_cache)
 from swim_jax.sharding import place, set_host_devices
 
 USAGE = (
@@ -102,9 +103,13 @@ def run(cfg: Config, run_dir: str, resume: bool = False, log: Callable[[str], No
     between them (building, compiling, in-chunk progress), each with the elapsed time.
 
     Sets ``jax_enable_x64`` for the run (float64 iff ``precision=float64``) and restores the
-    previous value when it returns, so in-process callers (tests) keep their own setting."""
-    if cfg.host_devices and not backends_started():
-        set_host_devices(cfg.host_devices)  # read when JAX starts its backends (importing it does not)
+    previous value when it returns, so in-process callers (tests) keep their own setting.
+
+    In a process whose JAX has not started yet, asks for ``host_devices`` host CPU devices, or with
+    ``lane_groups=true`` for one per core (``programs.auto_host_devices``)."""
+    host_devices = cfg.host_devices or auto_host_devices(cfg)
+    if host_devices and not backends_started():
+        set_host_devices(host_devices)  # read when JAX starts its backends (importing it does not)
     if cfg.compilation_cache:
         use_compilation_cache()
     previous_x64 = bool(jax.config.jax_enable_x64)
@@ -126,13 +131,14 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
     clock = _Clock(time.time())
     say(f"building {cfg.env.id} ({cfg.env.backend} physics, {cfg.precision}) and the TD3 program for "
         f"{num_lanes(cfg)} lanes; {matmul_dtype(cfg)[1]}")
-    sharding = placement(cfg, log)
+    sharding, groups = placement(cfg, log)
     prog = programs(cfg, sharding)
     native = prog.env.native_physics
     if native is not None:
         say(f"native physics: MuJoCo C through {'an XLA FFI call' if native.call == 'ffi' else 'Python callbacks'} "
             f"({native.call_reason})")
-    lanes = program_lanes(cfg, prog, sharding)
+    lanes = program_lanes(cfg, prog, sharding, groups)
+    grouped = GroupedChunks(groups, prog.chunk_fn) if groups is not None else None
     folder = outputs.RunFolder(cfg, run_dir, lanes.seed_ids, writes=distributed.is_writer())
     folder.create(fresh=not resume)
     ckpt = Checkpointer(os.path.join(run_dir, "checkpoints"), keep=cfg.keep_checkpoints)
@@ -154,7 +160,7 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
         if c == start:
             say(f"compiling the training program and running its first {cfg.eval_freq} steps "
                 f"(compiles take seconds to minutes on a CPU; cached for the next run)")
-        states, metrics = train_chunk(cfg, prog.chunk_fn, states, c, lanes.sweep_args, lanes.sharding, say)
+        states, metrics = train_chunk(cfg, prog.chunk_fn, states, c, lanes.sweep_args, lanes.sharding, say, grouped)
         bad = to_host(states.bad_step)  # waits for the chunk
         dt = clock.trained(time.time() - t0, cfg.eval_freq)
         step = (c + 1) * cfg.eval_freq
@@ -168,7 +174,7 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
                            clock.elapsed(), clock.eta(n_chunks - c - 1), metrics, prog.agent.matmul_dtype is not None))
     final_actor = outputs.flat_params(jax.tree.map(lambda x: x[: folder.real_lanes], to_host(states.agent.actor)))
     folder.final_policy(final_actor)
-    timing = _timing(cfg, prog, lanes, evals, clock, start if resume else None)
+    timing = _timing(cfg, prog, lanes, evals, clock, start if resume else None, grouped)
     folder.timing(timing)
     ckpt.close()
     return RunResult(run_dir, evals.returns[:, : folder.real_lanes], final_actor, states, prog.chunk_fn,
@@ -253,8 +259,9 @@ class _Clock:
 
 
 def _timing(cfg: Config, prog: Programs, lanes: Lanes, evals: _Evaluations, clock: _Clock,
-            resumed_from_chunk: int | None) -> dict:
-    """``timing.json``: wall time, throughput (aggregate and per lane), compile counts."""
+            resumed_from_chunk: int | None, grouped: GroupedChunks | None = None) -> dict:
+    """``timing.json``: wall time, throughput (aggregate and per lane), compile counts (with lane
+    groups, ``chunk_compiles`` counts their executables, all compiled before the first call)."""
     P, S = len(cfgmod.sweep_points(cfg)), cfg.seeds
     train_s = clock.train_s
     return {
@@ -269,10 +276,12 @@ def _timing(cfg: Config, prog: Programs, lanes: Lanes, evals: _Evaluations, cloc
         "lanes": lanes.count,
         "total_steps": cfg.total_steps,
         "resumed_from_chunk": resumed_from_chunk,
-        "chunk_compiles": prog.chunk_fn._cache_size(),
+        "chunk_compiles": prog.chunk_fn._cache_size() + (grouped.executables if grouped else 0),
         "eval_compiles": prog.eval_fn._cache_size(),
         "platform": jax.devices()[0].platform,
-        "devices": jax.device_count() if lanes.sharding is not None else 1,
+        "devices": (jax.device_count() if lanes.sharding is not None
+                    else len(lanes.groups.devices) if lanes.groups is not None else 1),
+        "lane_groups": lanes.groups.describe() if lanes.groups is not None else None,
         "processes": jax.process_count(),
         "matmul_dtype": jnp.dtype(prog.agent.matmul_dtype or prog.agent.dtype).name,
         "native_call": prog.env.native_physics.call if prog.env.native_physics is not None else None,
@@ -307,28 +316,40 @@ def _first_bad(bad_step: np.ndarray):
 PROGRESS_EVERY_S = 30.0
 
 
-def train_chunk(cfg: Config, chunk_fn, states, c: int, sweep_args, sharding, say):
+def train_chunk(cfg: Config, chunk_fn, states, c: int, sweep_args, sharding, say,
+                grouped: GroupedChunks | None = None):
     """Chunk ``c`` (``eval_freq`` steps) as calls of ``steps_per_call(cfg)`` steps each; between
     calls, at most every ``PROGRESS_EVERY_S`` seconds, ``say`` gets the step, env-steps/s and the
     chunk's ETA. Re-placing keeps the input sharding identical every call (no recompilation).
+    With ``grouped`` (swim_jax/lane_groups.py) every call runs as its lane groups' programs, the
+    state split into them at the start and joined at the end (call numbers run on across chunks).
     Returns (states, the chunk's per-lane learning metrics, ``learning_log.combine``)."""
     per_call = cfgmod.steps_per_call(cfg)
     calls = cfg.eval_freq // per_call
+    if grouped is not None:
+        parts, arg_parts = grouped.split(states, sweep_args, c * calls)
     t0 = last = time.time()
     metrics = []
     for j in range(calls):
         t = c * cfg.eval_freq + j * per_call
-        states, m = chunk_fn(states, jnp.asarray(t, jnp.int32), *sweep_args)
-        states = place(states, sharding)
+        if grouped is None:
+            states, m = chunk_fn(states, jnp.asarray(t, jnp.int32), *sweep_args)
+            states = place(states, sharding)
+        else:
+            parts, m = grouped.step(parts, arg_parts, t, c * calls + j)
         metrics.append(m)
         if j + 1 < calls and time.time() - last >= PROGRESS_EVERY_S:
-            jax.block_until_ready(states.bad_step)  # wait for the call (cheap: a few ints)
+            # wait for the call (cheap: a few ints)
+            jax.block_until_ready([p.bad_step for p in parts] if grouped is not None else states.bad_step)
             now = time.time()
             done = (j + 1) * per_call
             rate = done / (now - t0)
             say(f"step {t + per_call}/{cfg.total_steps}: {rate * cfg.seeds * len(cfgmod.sweep_points(cfg)):.0f} env-steps/s in this chunk, "
                 f"evaluation in {_fmt_time((cfg.eval_freq - done) / rate)}")
             last = now
+    if grouped is not None:
+        states = grouped.join(parts)
+        metrics = [grouped.join_host(to_host(m)) for m in metrics]
     return states, learning_log.combine(to_host(metrics))
 
 
@@ -420,8 +441,9 @@ def main(argv: list[str] | None = None, require_sweep: bool = False) -> int:
     if spawn:
         return local_processes.spawn("swim_jax.sweep" if require_sweep else "swim_jax.train", command,
                                      cfg.local_processes)
-    if cfg.host_devices and not backends_started():
-        set_host_devices(cfg.host_devices)  # before the backends start (joining the processes starts them)
+    host_devices = cfg.host_devices or (0 if launch.multi else auto_host_devices(cfg))
+    if host_devices and not backends_started():
+        set_host_devices(host_devices)  # before the backends start (joining the processes starts them)
     try:
         distributed.start(launch)
     except RuntimeError as e:
