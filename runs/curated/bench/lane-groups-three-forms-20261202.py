@@ -1,7 +1,9 @@
+# Scratch A/B of 2026-12-02 (docs/BENCHMARKS.md §11): one program vs lane groups as landed (train_chunk)
+# vs hand-placed groups, 5 lanes on 2 host devices, interleaved rounds. Run: python runs/curated/bench/lane-groups-three-forms-20261202.py
 import os, sys, time, statistics
 os.environ["XLA_FLAGS"] = os.environ.get("XLA_FLAGS", "") + " --xla_force_host_platform_device_count=2"
 import jax, jax.numpy as jnp
-sys.path.insert(0, "/work/main")
+sys.path.insert(0, ".")  # run from the repository root
 from swim_jax import config as cfgmod, train, lane_groups
 from swim_jax.bench_train import learning_phase_overrides, lanes_program
 N = 400
