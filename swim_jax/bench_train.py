@@ -17,8 +17,7 @@ interleaved.
 With several devices (GPUs, or ``--host-devices N`` host CPU devices) ``--shard both`` times each
 L twice in the same process, lanes on one device and lanes split over all devices
 (``swim_jax.sharding``; rows without lane groups), so the effect of sharding is a ratio measured
-interleaved. Likewise each
-``--variant KEY=VALUE[,KEY=VALUE]`` adds a copy of every program built with those config overrides
+interleaved. Likewise each ``--variant KEY=VALUE[,KEY=VALUE]`` adds a copy of every program built with those config overrides
 (e.g. ``--variant matmul_dtype=bfloat16``), timed interleaved with the plain ones.
 
 A sweep of P points × S seeds is a program of L = P·S lanes, so the table is its cost too.
@@ -113,9 +112,7 @@ def _candidates(lanes: list[int], variant_cfgs: dict, shard: str) -> list[tuple]
     for L in lanes:
         sh, _why = lane_sharding(L)
         for v, cfg in variant_cfgs.items():
-            groups = None
-            if cfg.lane_groups and jax.default_backend() == "cpu":
-                groups = lane_groups.plan(L, jax.local_devices())
+            groups = programs.groups_for(cfg, L)
             if groups is not None:
                 candidates.append((L, None, v, groups))
                 continue
@@ -128,7 +125,7 @@ def _candidates(lanes: list[int], variant_cfgs: dict, shard: str) -> list[tuple]
 
 def _row(c, times: list[float], compile_s: float, one_lane_s, chunk_steps: int, flops: float,
          roof, executables: int, added: int) -> dict:
-    """One table row: medians and rates of candidate ``c`` = (lanes, sharding, variant) from its
+    """One table row: medians and rates of candidate ``c`` = (lanes, sharding, variant, groups) from its
     chunk times; ``one_lane_s``: the median chunk time of the 1-lane program of its variant (or
     None); ``executables``/``added``: its chunk's compiled executables and those added while timing."""
     L, sh, v, groups = c

@@ -174,6 +174,14 @@ def auto_host_devices(cfg: Config) -> int:
     return n if n >= 2 else 0
 
 
+def groups_for(cfg: Config, count: int) -> lane_groups.LaneGroups | None:
+    """The lane groups of ``count`` lanes of ``cfg`` (swim_jax/lane_groups.py), or None: groups need
+    ``lane_groups=true``, a CPU backend, one process and at least two host devices."""
+    if not cfg.lane_groups or jax.process_count() > 1 or jax.default_backend() != "cpu":
+        return None
+    return lane_groups.plan(count, jax.local_devices())
+
+
 def placement(cfg: Config, log: Callable[[str], None]):
     """How ``cfg``'s lanes spread over the devices: ``(sharding, groups)``. On a CPU backend in one
     process with several host devices and ``lane_groups=true``, ``groups`` (swim_jax/lane_groups.py:
@@ -186,11 +194,10 @@ def placement(cfg: Config, log: Callable[[str], None]):
     if cfg.host_devices and jax.devices()[0].platform == "cpu" and jax.local_device_count() != cfg.host_devices:
         log(f"warning: host_devices={cfg.host_devices} but JAX started with {jax.local_device_count()} devices; "
             f"set XLA_FLAGS=--xla_force_host_platform_device_count={cfg.host_devices} before Python starts")
-    if cfg.lane_groups and jax.process_count() == 1 and jax.default_backend() == "cpu":
-        groups = lane_groups.plan(count, jax.local_devices())
-        if groups is not None:
-            log(f"lanes: {groups.describe()}")
-            return None, groups
+    groups = groups_for(cfg, count)
+    if groups is not None:
+        log(f"lanes: {groups.describe()}")
+        return None, groups
     sharding, how = lane_sharding(count) if cfg.shard_lanes else (None, "shard_lanes=false")
     if jax.process_count() > 1:
         if sharding is None:
