@@ -43,7 +43,7 @@ import jax.numpy as jnp
 from agents.replay import Transition
 from swim_jax import cli_parser
 from swim_jax import config as cfgmod
-from swim_jax import lane_groups, programs, roofline, train
+from swim_jax import programs, roofline, train
 from swim_jax.bench_io import write_result
 from swim_jax.config import ConfigError
 # importing these does not start the JAX backend, so --host-devices (XLA_FLAGS) still applies
@@ -190,14 +190,18 @@ def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overr
     progs, states, compile_s, cfgs, grouped = {}, {}, {}, {}, {}
 
     def run_chunk(c, st, index):  # as the training loop runs it (calls of progress_steps steps)
-        return jax.block_until_ready(train.train_chunk(cfgs[c], progs[c].chunk_fn, st, index, (), c[1],
-                                                       lambda _: None, grouped[c])[0])
+        st = train.train_chunk(cfgs[c], progs[c].chunk_fn, st, index, (), c[1], lambda _: None, grouped[c])[0]
+        # lane groups: training joins a whole-lane copy after every chunk (evaluation, checkpoint)
+        jax.block_until_ready(st if grouped[c] is None else grouped[c].join(st))
+        return st
 
     for c in candidates:
         L, sh, v, groups = c
         cfgs[c], progs[c], st = lanes_program(variant_cfgs[v], L, sh)
-        grouped[c] = lane_groups.GroupedChunks(groups, progs[c].chunk_fn) if groups is not None else None
+        grouped[c] = programs.grouped_chunks(cfgs[c], progs[c], groups)
         t0 = time.perf_counter()
+        if grouped[c] is not None:
+            st = grouped[c].split(st, ())  # compiles every group's program
         states[c] = run_chunk(c, st, 0)
         compile_s[c] = time.perf_counter() - t0
         how = " sharded" if sh else f" as {groups.describe()}" if groups else ""

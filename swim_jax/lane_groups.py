@@ -4,29 +4,29 @@ XLA's CPU backend runs a program's operations one after another, each spread ove
 TD3's sizes (256-wide products, elementwise passes over a few MB) that scales poorly: on 2 cores
 the products run 1.86× faster than on one, the rest 1.3× (docs/BENCHMARKS.md §8). Host CPU devices
 (``XLA_FLAGS=--xla_force_host_platform_device_count=N``, one per core) run their programs at the
-same time, each on its own thread, so the lanes can be split into one group per device. Measured
-(docs/BENCHMARKS.md §11, 5 lanes on 2 cores): hand-placed groups 0.85× one program's step time, this
-module's form (which also splits and joins the whole state at every chunk, for the evaluation and
-the checkpoint) 0.90–0.99×, within the machine's noise; so ``lane_groups`` is off by default.
+same time, each on its own thread, so the lanes can be split into one group per device
+(docs/BENCHMARKS.md §11-12 for what it gains).
 
 The split (:func:`plan`), L lanes over D = min(L, devices) devices, q = L // D, r = L mod D:
 
 * group g (g < D) holds lanes [g·q, (g+1)·q) and always runs on device g, vmapped over its q lanes;
-* each of the r leftover lanes L−r … L−1 runs on its own (one lane), leftover lane i on device
-  (i + call) mod D in call number ``call``, so over D calls every device carries q + r/D lanes' work.
-  Its state moves with it: a copy between host devices (memory, no arithmetic), and the results
-  cannot depend on the device: every device is the same CPU running the same compiled code.
+* each of the r leftover lanes L−r … L−1 runs on its own (one lane) in D pieces per call, each of
+  1/D of the call's steps, piece k of leftover lane j on device (j + k) mod D, one after another.
+  So in every call every device carries q + r/D lanes' work. The lane's state moves from piece to
+  piece (a copy between host devices: memory, no arithmetic), and the results cannot depend on the
+  device: every device is the same CPU running the same compiled code.
 
-Every lane computes what it computes in one program over all lanes (same seeds, keys, updates);
-only float rounding may differ (products batched over q lanes instead of L): a float64 run's final
-actors agree to 3e-16 (tests/test_lane_groups.py).
+Every lane computes what it computes in one program over all lanes (same seeds, keys, updates; a
+chunk of n steps is the same as two chunks of n/2); only float rounding may differ (products
+batched over q lanes instead of L): a float64 run's final actors agree to 3e-16
+(tests/test_lane_groups.py).
 
-:class:`GroupedChunks` runs a training chunk that way: :meth:`~GroupedChunks.split` the whole-lane
-state into parts at the start of a chunk, :meth:`~GroupedChunks.step` every call (asynchronously:
-each device works through its own calls; nothing waits between calls), :meth:`~GroupedChunks.join`
-the parts back into one whole-lane state (on the first device) at its end, where the evaluation,
-the NaN check and the checkpoint read it. The executables (one per lane count and device) are
-compiled before the first call, concurrently, so none is compiled while training.
+:class:`GroupedChunks` runs the training calls that way: :meth:`~GroupedChunks.split` a whole-lane
+state into :class:`Parts` once, :meth:`~GroupedChunks.step` them call after call (asynchronously:
+each device works through its own queue; nothing waits between calls or between chunks), and
+:meth:`~GroupedChunks.join` a whole-lane copy (on the first device) where the evaluation, the NaN
+check and the checkpoint read one; training goes on from the parts. The executables (each program
+on each device) are compiled before the first call, concurrently, so none is compiled while training.
 """
 
 from __future__ import annotations
@@ -43,7 +43,7 @@ import numpy as np
 @dataclass(frozen=True)
 class LaneGroups:
     """Which lanes run where: ``devices[g]`` steps group g = lanes ``[g·per_group, (g+1)·per_group)``;
-    the ``leftover`` lanes run one at a time, rotating over the devices call by call."""
+    the ``leftover`` lanes run one at a time, in one piece per device every call."""
 
     devices: tuple
     per_group: int
@@ -58,36 +58,56 @@ class LaneGroups:
         q = self.per_group
         return [(g * q, (g + 1) * q) for g in range(len(self.devices))] + [(i, i + 1) for i in self.leftover]
 
-    def device_index(self, part: int, call: int) -> int:
-        """The device (index into :attr:`devices`) that runs ``part`` in call number ``call``."""
+    def piece_devices(self, j: int) -> list[int]:
+        """The devices (indices into :attr:`devices`) of leftover lane number ``j``'s pieces, in order."""
         D = len(self.devices)
-        return part if part < D else (part - D + call) % D
+        return [(j + k) % D for k in range(D)]
 
     def describe(self) -> str:
-        text = f"{self.lanes} lanes as {len(self.devices)} groups of {self.per_group}, one per {self.devices[0].platform} device"
+        D = len(self.devices)
+        text = f"{self.lanes} lanes as {D} groups of {self.per_group}, one per {self.devices[0].platform} device"
         if self.leftover:
-            text += f", {len(self.leftover)} more rotating over them"
+            text += f", {len(self.leftover)} more in {D} pieces per call over them"
         return text
 
 
-def plan(lanes: int, devices: Sequence) -> LaneGroups | None:
+class StepsError(ValueError):
+    """The steps per call cannot be cut into one equal piece per device."""
+
+
+def plan(lanes: int, devices: Sequence, steps_per_call: int) -> LaneGroups | None:
     """The groups of ``lanes`` lanes over ``devices`` (at most one group per lane), or None when
-    fewer than two devices would be used (one program is then all there is)."""
+    fewer than two devices would be used (one program is then all there is). :class:`StepsError`
+    when there are leftover lanes and ``steps_per_call`` is not a multiple of the devices used."""
     devices = tuple(devices)[:lanes]
     if len(devices) < 2:
         return None
     q, r = divmod(lanes, len(devices))
+    if r and steps_per_call % len(devices):
+        raise StepsError(f"{lanes} lanes on {len(devices)} devices leave {r} lane(s) to run in {len(devices)} "
+                         f"equal pieces per call, but {steps_per_call} steps per call is not a multiple of "
+                         f"{len(devices)}")
     return LaneGroups(devices, q, tuple(range(lanes - r, lanes)))
+
+
+@dataclass
+class Parts:
+    """A whole-lane training state as :class:`GroupedChunks` steps it: ``states[g]`` group g's lanes
+    on device g, then every leftover lane's state (on the device of its first piece); ``args`` their
+    per-lane arguments (a group's on its device; a leftover lane's as one copy per device)."""
+
+    states: list
+    args: list
+
+    def ready(self) -> None:
+        """Wait until every part's last call has finished (reads a few ints)."""
+        jax.block_until_ready([s.bad_step for s in self.states])
 
 
 def _specs(device):
     """A function giving a pytree's shapes and dtypes placed on ``device`` (to lower a program for it)."""
     sharding = jax.sharding.SingleDeviceSharding(device)
     return lambda tree: jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype, sharding=sharding), tree)
-
-
-def _take(tree, start: int, stop: int):
-    return jax.tree.map(lambda x: x[start:stop], tree)
 
 
 @jax.jit
@@ -98,74 +118,104 @@ def _concatenate(parts: list):
 
 def _slices(bounds: tuple):
     """A jitted function giving ``tree``'s lanes ``[a, b)`` for every ``(a, b)`` in ``bounds``."""
-    return jax.jit(lambda tree: [_take(tree, a, b) for a, b in bounds])
+    return jax.jit(lambda tree: [jax.tree.map(lambda x: x[a:b], tree) for a, b in bounds])
 
 
 class GroupedChunks:
-    """A chunk function ``fn(states, t, *args) -> (states, metrics)`` (every array with the lanes
-    first; ``args``: per-lane arrays such as a sweep's values) run as the parts of ``groups``."""
+    """Training calls ``fn(states, t, *args) -> (states, metrics)`` (every array with the lanes
+    first; ``args``: per-lane arrays such as a sweep's values) run as the parts of ``groups``; a
+    leftover lane's call as ``piece_fn`` (the same program for 1/D of the steps) once per device."""
 
-    def __init__(self, groups: LaneGroups, fn: Callable):
+    def __init__(self, groups: LaneGroups, fn: Callable, piece_fn: Callable, steps_per_call: int):
         self.groups = groups
-        self._fn = fn
-        self._compiled: dict[tuple[int, int], object] = {}  # (lanes, device index) -> executable
+        self._fn, self._piece_fn = fn, piece_fn
+        self._piece_steps = steps_per_call // len(groups.devices)
+        self._compiled: dict[tuple[str, int], object] = {}  # ("group" | "piece", device index) -> executable
         self._split = _slices(tuple(groups.parts()))
 
     @property
     def executables(self) -> int:
-        """Compiled executables: one per (lane count, device) in use."""
+        """Compiled executables: each group's on its device, the piece program on every device."""
         return len(self._compiled)
 
-    def split(self, states, args: tuple, call: int) -> tuple[list, list]:
-        """(state parts, argument parts): each part's lanes on the device that runs it in ``call``.
-        Compiles, on first use, every executable the rotation will need."""
-        # committed to the first device, as join leaves it: one compiled split for every chunk
+    def split(self, states, args: tuple) -> Parts:
+        """``states`` (whole-lane) and ``args`` as :class:`Parts`, each on the device that runs it
+        first. Compiles, on first use, every executable the parts need."""
+        # committed to the first device, as join leaves it: one compiled split for every state
         pieces = self._split(jax.device_put((states, args), self.groups.devices[0]))
-        parts = [self._put(part, p, call) for p, (part, _) in enumerate(pieces)]
-        arg_parts = [self._put(a, p, call) for p, (_, a) in enumerate(pieces)]
-        self._compile_all(parts, arg_parts, call)
-        return parts, arg_parts
-
-    def step(self, parts: list, arg_parts: list, t: int, call: int) -> tuple[list, list]:
-        """Call number ``call`` (its first env step ``t``) of every part, on its device; returns the
-        new parts and every part's metrics. Nothing waits for the devices."""
-        new_parts, metrics = [], []
-        for p, (part, args) in enumerate(zip(parts, arg_parts)):
-            part, args = self._put(part, p, call), self._put(args, p, call)
-            exe = self._compiled[(self._width(p), self.groups.device_index(p, call))]
-            part, m = exe(part, self._put(jnp.asarray(t, jnp.int32), p, call), *args)
-            new_parts.append(part)
-            metrics.append(m)
-        return new_parts, metrics
-
-    def join(self, parts: list):
-        """The whole-lane state (lanes in order) on the first device."""
-        first = self.groups.devices[0]
-        return _concatenate([jax.device_put(p, first) for p in parts])
-
-    @staticmethod
-    def join_host(metrics: list):
-        """Every part's metrics of one call (host arrays) as one pytree with the lanes in order."""
-        return jax.tree.map(lambda *xs: np.concatenate(xs), *metrics)
-
-    def _width(self, part: int) -> int:
-        return self.groups.per_group if part < len(self.groups.devices) else 1
-
-    def _put(self, tree, part: int, call: int):
-        return jax.device_put(tree, self.groups.devices[self.groups.device_index(part, call)])
-
-    def _compile_all(self, parts: list, arg_parts: list, call: int) -> None:
-        """Lower (here) and compile (in threads: XLA compiles without the GIL) every missing
-        executable: each group's on its device, the one-lane program on every device."""
-        todo = {}
         D = len(self.groups.devices)
-        for p, (part, args) in enumerate(zip(parts, arg_parts)):
-            devices = [self.groups.device_index(p, call)] if p < D else range(D)
-            for d in devices:
-                key = (self._width(p), d)
-                if key not in self._compiled and key not in todo:
+        states = [self._on(part, self._first_device(p)) for p, (part, _) in enumerate(pieces)]
+        arg_parts = [self._on(a, p) if p < D else [self._on(a, d) for d in range(D)]
+                     for p, (_, a) in enumerate(pieces)]
+        parts = Parts(states, arg_parts)
+        self._compile_all(parts)
+        return parts
+
+    def step(self, parts: Parts, t: int) -> tuple[Parts, list]:
+        """One call (its first env step ``t``) of every part; returns the new parts and every part's
+        metrics (a leftover lane's as the list of its pieces'). Nothing waits for the devices.
+
+        Order matters, because a copy out of a device waits for the work queued there before it: a
+        leftover lane's first pieces go first, each followed at once by the copy of its state to the
+        next piece's device, then the groups; the step numbers go straight from the host to each device."""
+        D = len(self.groups.devices)
+        states, metrics = list(parts.states), [None] * D + [[] for _ in self.groups.leftover]
+
+        def piece(j: int, k: int):
+            devices = self.groups.piece_devices(j)
+            d = devices[k]
+            states[D + j], m = self._compiled[("piece", d)](states[D + j], self._step(t + k * self._piece_steps, d),
+                                                           *parts.args[D + j][d])
+            metrics[D + j].append(m)
+            states[D + j] = self._on(states[D + j], devices[(k + 1) % D])  # where its next piece runs
+
+        for j in range(len(self.groups.leftover)):
+            piece(j, 0)
+        for g in range(D):
+            states[g], metrics[g] = self._compiled[("group", g)](states[g], self._step(t, g), *parts.args[g])
+        for k in range(1, D):
+            for j in range(len(self.groups.leftover)):
+                piece(j, k)
+        return Parts(states, parts.args), metrics
+
+    def join(self, parts: Parts):
+        """A whole-lane copy of ``parts``' states (lanes in order) on the first device."""
+        first = self.groups.devices[0]
+        return _concatenate([jax.device_put(s, first) for s in parts.states])
+
+    def join_metrics(self, metrics: list, merge: Callable):
+        """One call's metrics from :meth:`step` (host arrays) as one pytree with the lanes in order;
+        ``merge`` turns a leftover lane's pieces' metrics into that call's."""
+        D = len(self.groups.devices)
+        whole = metrics[:D] + [merge(pieces) for pieces in metrics[D:]]
+        return jax.tree.map(lambda *xs: np.concatenate(xs), *whole)
+
+    def _first_device(self, part: int) -> int:
+        D = len(self.groups.devices)
+        return part if part < D else self.groups.piece_devices(part - D)[0]
+
+    def _on(self, tree, device: int):
+        return jax.device_put(tree, self.groups.devices[device])
+
+    def _step(self, t: int, device: int):
+        """Step number ``t`` on ``device``, from the host (made on another device, it would wait there)."""
+        return jax.device_put(np.int32(t), self.groups.devices[device])
+
+    def _compile_all(self, parts: Parts) -> None:
+        """Lower (here) and compile (in threads: XLA compiles without the GIL) every missing
+        executable: each group's on its device, the one-lane piece program on every device."""
+        D = len(self.groups.devices)
+        t = np.int32(0)
+        todo = {}
+        for g in range(D):
+            if ("group", g) not in self._compiled:
+                spec = _specs(self.groups.devices[g])
+                todo[("group", g)] = self._fn.lower(spec(parts.states[g]), spec(t), *spec(parts.args[g]))
+        if self.groups.leftover:
+            for d in range(D):
+                if ("piece", d) not in self._compiled:
                     spec = _specs(self.groups.devices[d])
-                    todo[key] = self._fn.lower(spec(part), spec(jnp.asarray(0, jnp.int32)), *spec(args))
+                    todo[("piece", d)] = self._piece_fn.lower(spec(parts.states[D]), spec(t), *spec(parts.args[D][d]))
         if not todo:
             return
         with concurrent.futures.ThreadPoolExecutor(max_workers=D) as pool:

@@ -10,6 +10,7 @@ agents/loop.py for that placement, and ``lanes(cfg, prog, sharding)`` gives thei
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from dataclasses import dataclass
 from typing import Callable
@@ -176,10 +177,27 @@ def auto_host_devices(cfg: Config) -> int:
 
 def groups_for(cfg: Config, count: int) -> lane_groups.LaneGroups | None:
     """The lane groups of ``count`` lanes of ``cfg`` (swim_jax/lane_groups.py), or None: groups need
-    ``lane_groups=true``, a CPU backend, one process and at least two host devices."""
+    ``lane_groups=true``, a CPU backend, one process and at least two host devices. ConfigError when
+    leftover lanes cannot be cut into one equal piece per device (``progress_steps``)."""
     if not cfg.lane_groups or jax.process_count() > 1 or jax.default_backend() != "cpu":
         return None
-    return lane_groups.plan(count, jax.local_devices())
+    try:
+        return lane_groups.plan(count, jax.local_devices(), cfgmod.steps_per_call(cfg))
+    except lane_groups.StepsError as e:
+        raise cfgmod.ConfigError(f"lane_groups=true: {e}; set progress_steps (steps per call, dividing "
+                                 f"eval_freq={cfg.eval_freq}) to a multiple of it, or lane_groups=false") from None
+
+
+def grouped_chunks(cfg: Config, prog: Programs, groups: lane_groups.LaneGroups | None):
+    """The :class:`~swim_jax.lane_groups.GroupedChunks` stepping ``prog``'s chunk as ``groups``
+    (None without groups); a leftover lane's pieces run the same program built for 1/D of the
+    steps per call (D devices)."""
+    if groups is None:
+        return None
+    per_call = cfgmod.steps_per_call(cfg)
+    piece_steps = per_call // len(groups.devices)
+    pieces = programs(dataclasses.replace(cfg, progress_steps=piece_steps)).chunk_fn if groups.leftover else None
+    return lane_groups.GroupedChunks(groups, prog.chunk_fn, pieces, per_call)
 
 
 def placement(cfg: Config, log: Callable[[str], None]):

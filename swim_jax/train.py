@@ -55,15 +55,16 @@ import jax.numpy as jnp
 import numpy as np
 import yaml
 
-from agents.loop import CHECKED
+from agents.loop import CHECKED, ChunkMetrics
 from swim_jax import config as cfgmod
 from swim_jax import distributed, learning_log, local_processes, outputs
 from swim_jax.checkpoint import Checkpointer, latest_complete_step
 from swim_jax.config import Config, ConfigError
 from swim_jax.distributed import to_host
 from swim_jax.lane_groups import GroupedChunks
-from swim_jax.programs import (Lanes, Programs, auto_host_devices, backends_started, lanes as program_lanes,
-                               matmul_dtype, num_lanes, placement, programs, use_compilation_cache)
+from swim_jax.programs import (Lanes, Programs, auto_host_devices, backends_started, grouped_chunks,
+                               lanes as program_lanes, matmul_dtype, num_lanes, placement, programs,
+                               use_compilation_cache)
 from swim_jax.sharding import place, set_host_devices
 
 USAGE = (
@@ -138,7 +139,7 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
         say(f"native physics: MuJoCo C through {'an XLA FFI call' if native.call == 'ffi' else 'Python callbacks'} "
             f"({native.call_reason})")
     lanes = program_lanes(cfg, prog, sharding, groups)
-    grouped = GroupedChunks(groups, prog.chunk_fn) if groups is not None else None
+    grouped = grouped_chunks(cfg, prog, groups)
     folder = outputs.RunFolder(cfg, run_dir, lanes.seed_ids, writes=distributed.is_writer())
     folder.create(fresh=not resume)
     ckpt = Checkpointer(os.path.join(run_dir, "checkpoints"), keep=cfg.keep_checkpoints)
@@ -155,12 +156,18 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
     start = 0 if restored is None else restored // cfg.eval_freq
     folder.evaluations(evals.returns, start + 1)
     n_chunks = cfg.total_steps // cfg.eval_freq
+    # with lane groups, training goes on from the parts; ``states`` is their joined copy after each chunk
+    parts = grouped.split(states, lanes.sweep_args) if grouped is not None and start < n_chunks else None
     for c in range(start, n_chunks):
         t0 = time.time()
         if c == start:
             say(f"compiling the training program and running its first {cfg.eval_freq} steps "
                 f"(compiles take seconds to minutes on a CPU; cached for the next run)")
-        states, metrics = train_chunk(cfg, prog.chunk_fn, states, c, lanes.sweep_args, lanes.sharding, say, grouped)
+        if grouped is None:
+            states, metrics = train_chunk(cfg, prog.chunk_fn, states, c, lanes.sweep_args, lanes.sharding, say)
+        else:
+            parts, metrics = train_chunk(cfg, prog.chunk_fn, parts, c, lanes.sweep_args, lanes.sharding, say, grouped)
+            states = grouped.join(parts)
         bad = to_host(states.bad_step)  # waits for the chunk
         dt = clock.trained(time.time() - t0, cfg.eval_freq)
         step = (c + 1) * cfg.eval_freq
@@ -321,13 +328,12 @@ def train_chunk(cfg: Config, chunk_fn, states, c: int, sweep_args, sharding, say
     """Chunk ``c`` (``eval_freq`` steps) as calls of ``steps_per_call(cfg)`` steps each; between
     calls, at most every ``PROGRESS_EVERY_S`` seconds, ``say`` gets the step, env-steps/s and the
     chunk's ETA. Re-placing keeps the input sharding identical every call (no recompilation).
-    With ``grouped`` (swim_jax/lane_groups.py) every call runs as its lane groups' programs, the
-    state split into them at the start and joined at the end (call numbers run on across chunks).
+    With ``grouped`` (swim_jax/lane_groups.py) ``states`` are its :class:`~swim_jax.lane_groups.Parts`
+    (so is what it returns) and every call runs as the lane groups' programs (``chunk_fn``,
+    ``sweep_args`` and ``sharding`` unused: the parts hold their arguments).
     Returns (states, the chunk's per-lane learning metrics, ``learning_log.combine``)."""
     per_call = cfgmod.steps_per_call(cfg)
     calls = cfg.eval_freq // per_call
-    if grouped is not None:
-        parts, arg_parts = grouped.split(states, sweep_args, c * calls)
     t0 = last = time.time()
     metrics = []
     for j in range(calls):
@@ -336,11 +342,11 @@ def train_chunk(cfg: Config, chunk_fn, states, c: int, sweep_args, sharding, say
             states, m = chunk_fn(states, jnp.asarray(t, jnp.int32), *sweep_args)
             states = place(states, sharding)
         else:
-            parts, m = grouped.step(parts, arg_parts, t, c * calls + j)
+            states, m = grouped.step(states, t)
         metrics.append(m)
         if j + 1 < calls and time.time() - last >= PROGRESS_EVERY_S:
             # wait for the call (cheap: a few ints)
-            jax.block_until_ready([p.bad_step for p in parts] if grouped is not None else states.bad_step)
+            states.ready() if grouped is not None else jax.block_until_ready(states.bad_step)
             now = time.time()
             done = (j + 1) * per_call
             rate = done / (now - t0)
@@ -348,9 +354,13 @@ def train_chunk(cfg: Config, chunk_fn, states, c: int, sweep_args, sharding, say
                 f"evaluation in {_fmt_time((cfg.eval_freq - done) / rate)}")
             last = now
     if grouped is not None:
-        states = grouped.join(parts)
-        metrics = [grouped.join_host(to_host(m)) for m in metrics]
+        metrics = [grouped.join_metrics(to_host(m), _merge_pieces) for m in metrics]
     return states, learning_log.combine(to_host(metrics))
+
+
+def _merge_pieces(pieces: list) -> ChunkMetrics:
+    """The metrics of one call made of consecutive ``pieces`` (host :class:`ChunkMetrics`)."""
+    return ChunkMetrics(**learning_log.combine(pieces))
 
 
 def _progress_line(cfg: Config, points, step: int, ev: np.ndarray, dt: float, first: bool,

@@ -8,30 +8,34 @@ import os
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 
 from swim_jax import config as cfgmod
-from swim_jax.lane_groups import plan
+from swim_jax.lane_groups import StepsError, plan
 from swim_jax.programs import auto_host_devices
 from tests.test_sharding import _python
 
 DEVICES = [SimpleNamespace(platform="cpu", id=i) for i in range(4)]
 
 
-def test_plan_splits_lanes_into_groups_and_rotating_leftovers():
-    g = plan(5, DEVICES[:2])
+def test_plan_splits_lanes_into_groups_and_leftover_pieces():
+    g = plan(5, DEVICES[:2], 1000)
     assert g.per_group == 2 and g.leftover == (4,) and g.lanes == 5
     assert g.parts() == [(0, 2), (2, 4), (4, 5)]
-    assert [g.device_index(0, c) for c in range(4)] == [0, 0, 0, 0]  # a group stays on its device
-    assert [g.device_index(1, c) for c in range(4)] == [1, 1, 1, 1]
-    assert [g.device_index(2, c) for c in range(4)] == [0, 1, 0, 1]  # the leftover lane rotates
-    assert g.describe() == "5 lanes as 2 groups of 2, one per cpu device, 1 more rotating over them"
-    g = plan(7, DEVICES[:3])
+    assert g.piece_devices(0) == [0, 1]  # the leftover lane: half a call on each device
+    assert g.describe() == "5 lanes as 2 groups of 2, one per cpu device, 1 more in 2 pieces per call over them"
+    g = plan(7, DEVICES[:3], 999)
     assert g.parts() == [(0, 2), (2, 4), (4, 6), (6, 7)]
-    g = plan(6, DEVICES)  # two leftover lanes on different devices in every call
-    assert g.parts()[-2:] == [(4, 5), (5, 6)]
-    assert all(g.device_index(4, c) != g.device_index(5, c) for c in range(8))
-    assert plan(3, DEVICES).devices == tuple(DEVICES[:3]) and plan(3, DEVICES).leftover == ()  # ≤ one device per lane
-    assert plan(1, DEVICES) is None and plan(5, DEVICES[:1]) is None  # one program is all there is
+    g = plan(7, DEVICES, 1000)  # three leftover lanes, each starting on its own device
+    assert g.per_group == 1 and g.parts()[-3:] == [(4, 5), (5, 6), (6, 7)]
+    assert [g.piece_devices(j) for j in range(3)] == [[0, 1, 2, 3], [1, 2, 3, 0], [2, 3, 0, 1]]
+    # every device carries the same share of the pieces
+    assert sorted(d for j in range(3) for d in g.piece_devices(j)) == sorted([0, 1, 2, 3] * 3)
+    assert plan(3, DEVICES, 1).devices == tuple(DEVICES[:3]) and plan(3, DEVICES, 1).leftover == ()  # ≤ one device per lane
+    assert plan(4, DEVICES[:2], 7).leftover == ()  # no pieces: any steps per call
+    assert plan(1, DEVICES, 10) is None and plan(5, DEVICES[:1], 10) is None  # one program is all there is
+    with pytest.raises(StepsError, match="999 steps per call is not a multiple of 2"):
+        plan(5, DEVICES[:2], 999)
 
 
 def test_auto_host_devices_only_with_lane_groups(monkeypatch):
@@ -46,11 +50,13 @@ def test_auto_host_devices_only_with_lane_groups(monkeypatch):
 
 
 def test_grouped_training_equals_one_program(tmp_path):
-    """3 lanes on 2 host devices (groups of 1, the third lane rotating) against one program, float64,
-    native physics, two chunks of two calls: the same evaluations and final actors to float rounding;
-    the executables (one per lane count and device) all compiled before the first call."""
+    """3 lanes on 2 host devices (groups of 1, the third lane in two half-call pieces, one per device)
+    against one program, float64, native physics, two chunks of two calls: the same evaluations,
+    learning metrics (metrics.csv: the pieces' merged) and final actors to float rounding; the
+    executables (each group's and the piece program on each device) all compiled before the first
+    call; steps per call that cannot be halved are refused before anything is written."""
     code = (
-        "import json, jax, numpy as np\n"
+        "import json, os, jax, numpy as np\n"
         "from swim_jax import config as c, train\n"
         "tiny = ['seeds=3','total_steps=2000','eval_freq=1000','progress_steps=500','learning_starts=500',"
         "'eval_episodes=2','replay_size=4000','agent.hidden=[16,16]','agent.batch_size=32','env.backend=mujoco',"
@@ -60,13 +66,26 @@ def test_grouped_training_equals_one_program(tmp_path):
         f"a = train.run(c.resolve('hopper_relu', tiny), {str(tmp_path / 'one')!r}, log=lambda s: None)\n"
         "diff = max(float(np.max(np.abs(np.asarray(x) - np.asarray(y))))\n"
         "           for x, y in zip(jax.tree.leaves(a.final_actor), jax.tree.leaves(b.final_actor)))\n"
+        "try:\n"
+        f"    train.run(c.resolve('hopper_relu', tiny + ['lane_groups=true', 'progress_steps=125']), {str(tmp_path / 'odd')!r})\n"
+        "    refused = None\n"
+        "except c.ConfigError as e:\n"
+        "    refused = str(e)\n"
         "print(json.dumps({'a': a.evaluations.tolist(), 'b': b.evaluations.tolist(), 'lines': lines, 'diff': diff,\n"
         "  'timing': {k: b.timing[k] for k in ('devices', 'lane_groups', 'chunk_compiles')},\n"
+        f"  'refused': refused, 'odd_written': os.path.exists({str(tmp_path / 'odd')!r}),\n"
         "  'one_devices': a.timing['devices']}))\n"
     )
     out = _python(code, devices=2, timeout=900)
-    assert out["lines"][0] == "lanes: 3 lanes as 2 groups of 1, one per cpu device, 1 more rotating over them"
+    assert out["lines"][0] == "lanes: 3 lanes as 2 groups of 1, one per cpu device, 1 more in 2 pieces per call over them"
     assert out["timing"]["devices"] == 2 and out["one_devices"] == 1
-    assert out["timing"]["chunk_compiles"] == 2  # 1 lane on each device, compiled up front; none later
+    assert out["timing"]["chunk_compiles"] == 4  # group and piece program on each device, up front; none later
     assert out["diff"] < 1e-9
     np.testing.assert_allclose(out["b"], out["a"], rtol=1e-9, atol=1e-9)
+    one, groups = (np.genfromtxt(tmp_path / run / "metrics.csv", delimiter=",", names=True) for run in ("one", "groups"))
+    assert len(one) == 6 and one.dtype.names == groups.dtype.names
+    assert one["updates"].sum() == 3 * 1500  # every lane updates from step 500 on, in both runs
+    for name in one.dtype.names:  # counts exact; losses, Q and returns to float rounding (nan where none)
+        np.testing.assert_allclose(groups[name], one[name], rtol=1e-9, atol=1e-9, err_msg=name)
+    assert "125 steps per call is not a multiple of 2" in out["refused"] and "progress_steps" in out["refused"]
+    assert not out["odd_written"]
