@@ -10,10 +10,10 @@ process so machine noise hits every L alike. Reported per L (medians, min–max)
     ms per step (all lanes) = 1000 · t_chunk / chunk_steps,
     cost ratio = t_chunk(L) / (L · t_chunk(1))   (1 = lanes cost as much as separate runs).
 
-On a CPU the program runs as ``swim_jax.train`` runs it: with ``lane_groups=true`` and several host
-CPU devices (``--host-devices N``) the lanes as one group per device, each group its own program
-(swim_jax/lane_groups.py), e.g. ``--host-devices 2 --variant lane_groups=true`` times both forms
-interleaved.
+On a CPU the program runs as ``swim_jax.train`` runs it: with ``lane_groups=true`` (the default) on
+several cores, one host CPU device per core and the lanes as one group per device, each group its
+own program (swim_jax/lane_groups.py); ``--variant lane_groups=false`` times one program for all
+lanes interleaved with them.
 With several devices (GPUs, or ``--host-devices N`` host CPU devices) ``--shard both`` times each
 L twice in the same process, lanes on one device and lanes split over all devices
 (``swim_jax.sharding``; rows without lane groups), so the effect of sharding is a ratio measured
@@ -64,8 +64,9 @@ def _parser() -> argparse.ArgumentParser:
                    help="auto: split lanes over the devices when they divide evenly (as train does); "
                         "off: one device; both: time each lane count both ways")
     p.add_argument("--host-devices", type=int, default=0,
-                   help="ask XLA for N host CPU devices (sets XLA_FLAGS before JAX starts); rows with "
-                        "lane_groups=true need at least 2")
+                   help="ask XLA for N host CPU devices (sets XLA_FLAGS before JAX starts); default 0: as "
+                        "swim_jax.train asks, one per core (at most the largest lane count) when the config "
+                        "or a variant has lane_groups=true (the default); 1: one device, so no lane groups")
     p.add_argument("--roofline", action=argparse.BooleanOptionalAction, default=True,
                    help="also measure the update's matmul roofline on one core and on all cores "
                         "(swim_jax.roofline) and report each row's fraction of cores × one-core roofline")
@@ -112,7 +113,7 @@ def _candidates(lanes: list[int], variant_cfgs: dict, shard: str) -> list[tuple]
     for L in lanes:
         sh, _why = lane_sharding(L)
         for v, cfg in variant_cfgs.items():
-            groups = programs.groups_for(cfg, L)
+            groups = programs.groups_for(cfg, L)[0]
             if groups is not None:
                 candidates.append((L, None, v, groups))
                 continue
@@ -272,12 +273,23 @@ def markdown(res: dict) -> str:
     return "\n".join(lines)
 
 
+def _auto_host_devices(config: str, lanes: int, overrides, variants) -> int:
+    """The host devices swim_jax.train would ask for (``programs.auto_host_devices``) for ``lanes``
+    seeds of ``config`` with ``overrides`` and any of ``variants``: the most of them."""
+    return max(programs.auto_host_devices(cfgmod.resolve(config, [*overrides, f"seeds={lanes}", *(v.split(",") if v else [])]))
+               for v in ("", *variants))
+
+
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
-    if args.host_devices > 0:
-        set_host_devices(args.host_devices)
     try:
         lanes = _lanes(args.lanes)
+        if args.host_devices > 0:
+            set_host_devices(args.host_devices)
+        elif not programs.backends_started():  # e.g. called in a process where JAX already runs
+            host_devices = _auto_host_devices(args.config, max(lanes), args.set, args.variant)
+            if host_devices:
+                set_host_devices(host_devices)
         if args.chunk_steps < 1 or args.repeats < 1:
             raise ValueError("--chunk-steps and --repeats must be >= 1")
         res = measure(args.config, lanes, args.chunk_steps, args.repeats, tuple(args.set), shard=args.shard,

@@ -85,10 +85,10 @@ class Config:
     host_devices: int = 0
     # true: on a CPU, in one process, the lanes are stepped as one group per core, each group its own
     # program on its own host CPU device, all running at once (swim_jax/lane_groups.py); swim_jax.train
-    # then asks for one host device per core (at most one per lane) unless host_devices is set.
-    # Measured 0.90-0.99x one program's step time for 5 lanes on 2 cores, within this machine's noise
-    # (docs/BENCHMARKS.md section 11), so off by default. false: one program for all lanes
-    lane_groups: bool = False
+    # then asks for one host device per core (at most one per seed) unless host_devices is set.
+    # Measured 0.80x one program's step time for 5 lanes on 2 cores (docs/BENCHMARKS.md section 12).
+    # Not where it cannot apply (GPU, several processes, one seed: one program). false: one program
+    lane_groups: bool = True
     # > 1: run as this many jax.distributed processes on this machine, each pinned to its share of
     # the cores (swim_jax/local_processes.py): each steps its own lanes with single-threaded products,
     # measured 1.17-1.20x one process on 2 cores (docs/BENCHMARKS.md section 5). CPU; lanes must divide

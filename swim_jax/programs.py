@@ -162,30 +162,36 @@ class Lanes:
     groups: lane_groups.LaneGroups | None = None  # one program per group of lanes (CPU), or None
 
 
+def real_lanes(cfg: Config) -> int:
+    """The lanes that train a seed of a sweep point: sweep points × ``seeds`` (no padding lane)."""
+    return len(cfgmod.sweep_points(cfg)) * cfg.seeds
+
+
 def auto_host_devices(cfg: Config) -> int:
     """Host CPU devices to ask for when ``host_devices`` is 0: with ``lane_groups=true`` and one
-    process on this machine, one per usable core and at most one per lane (0: leave JAX's default
-    of one, i.e. with one core or one lane, or when ``XLA_FLAGS`` already sets a count). Harmless on
-    a GPU machine (it only shapes the CPU platform)."""
+    process on this machine, one per usable core and at most one per real lane (0: leave JAX's
+    default of one, i.e. with one core or one seed, or when ``XLA_FLAGS`` already sets a count).
+    Harmless on a GPU machine (it only shapes the CPU platform)."""
     if cfg.host_devices or not cfg.lane_groups or cfg.local_processes > 1:
         return 0
     if "--xla_force_host_platform_device_count=" in os.environ.get("XLA_FLAGS", ""):
         return 0
-    n = min(len(os.sched_getaffinity(0)), num_lanes(cfg))
+    n = min(len(os.sched_getaffinity(0)), real_lanes(cfg))
     return n if n >= 2 else 0
 
 
-def groups_for(cfg: Config, count: int) -> lane_groups.LaneGroups | None:
-    """The lane groups of ``count`` lanes of ``cfg`` (swim_jax/lane_groups.py), or None: groups need
-    ``lane_groups=true``, a CPU backend, one process and at least two host devices. ConfigError when
-    leftover lanes cannot be cut into one equal piece per device (``progress_steps``)."""
-    if not cfg.lane_groups or jax.process_count() > 1 or jax.default_backend() != "cpu":
-        return None
+def groups_for(cfg: Config, count: int) -> tuple[lane_groups.LaneGroups | None, str]:
+    """The lane groups of ``count`` lanes of ``cfg`` (swim_jax/lane_groups.py), or None and, when
+    only the steps per call stand in the way, why in words. Groups need ``lane_groups=true``, a CPU
+    backend, one process, at least two host devices and two real lanes (a padded single seed stays
+    one program, so that it equals the same seed of a multi-seed run), and, with leftover lanes,
+    steps per call that cut into one equal piece per device."""
+    if not cfg.lane_groups or jax.process_count() > 1 or jax.default_backend() != "cpu" or real_lanes(cfg) < 2:
+        return None, ""
     try:
-        return lane_groups.plan(count, jax.local_devices(), cfgmod.steps_per_call(cfg))
+        return lane_groups.plan(count, jax.local_devices(), cfgmod.steps_per_call(cfg)), ""
     except lane_groups.StepsError as e:
-        raise cfgmod.ConfigError(f"lane_groups=true: {e}; set progress_steps (steps per call, dividing "
-                                 f"eval_freq={cfg.eval_freq}) to a multiple of it, or lane_groups=false") from None
+        return None, f"{e}; set progress_steps (dividing eval_freq={cfg.eval_freq}) to such a multiple"
 
 
 def grouped_chunks(cfg: Config, prog: Programs, groups: lane_groups.LaneGroups | None):
@@ -205,17 +211,19 @@ def placement(cfg: Config, log: Callable[[str], None]):
     process with several host devices and ``lane_groups=true``, ``groups`` (swim_jax/lane_groups.py:
     one program per group of lanes, one group per device) and no sharding; otherwise no groups and
     the sharding of the lane axis over the devices of every process, or None (all lanes on one
-    device). ``log`` gets how (when there are several devices) and a warning when ``host_devices``
-    asks for more than JAX started with. ConfigError when several processes run and the lanes
-    cannot be split over all their devices."""
+    device). ``log`` gets how (when there are several devices; why there are no lane groups when
+    only the steps per call stand in the way) and a warning when ``host_devices`` asks for more than JAX started
+    with. ConfigError when several processes run and the lanes cannot be split over all their devices."""
     count = num_lanes(cfg)
     if cfg.host_devices and jax.devices()[0].platform == "cpu" and jax.local_device_count() != cfg.host_devices:
         log(f"warning: host_devices={cfg.host_devices} but JAX started with {jax.local_device_count()} devices; "
             f"set XLA_FLAGS=--xla_force_host_platform_device_count={cfg.host_devices} before Python starts")
-    groups = groups_for(cfg, count)
+    groups, why_not = groups_for(cfg, count)
     if groups is not None:
         log(f"lanes: {groups.describe()}")
         return None, groups
+    if why_not:
+        log(f"lanes: no lane groups ({why_not})")
     sharding, how = lane_sharding(count) if cfg.shard_lanes else (None, "shard_lanes=false")
     if jax.process_count() > 1:
         if sharding is None:

@@ -166,6 +166,7 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
         if grouped is None:
             states, metrics = train_chunk(cfg, prog.chunk_fn, states, c, lanes.sweep_args, lanes.sharding, say)
         else:
+            states = None  # the previous chunk's copy goes before the next is made
             parts, metrics = train_chunk(cfg, prog.chunk_fn, parts, c, lanes.sweep_args, lanes.sharding, say, grouped)
             states = grouped.join(parts)
         bad = to_host(states.bad_step)  # waits for the chunk

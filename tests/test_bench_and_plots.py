@@ -2,6 +2,7 @@
 
 import json
 import math
+import os
 import subprocess
 import sys
 
@@ -140,10 +141,11 @@ def test_train_and_profile_benchmarks_bad_input_exit_2_nothing_written(tmp_path,
 
 
 @pytest.mark.slow
-def test_train_benchmark_times_real_programs_without_recompiling(tmp_path):
+def test_train_benchmark_times_real_programs_without_recompiling(tmp_path, monkeypatch):
     from swim_jax.bench_train import main as bench_train_main
 
-    tiny = ["--set", "agent.hidden=[16]", "--set", "agent.batch_size=16"]
+    monkeypatch.setenv("XLA_FLAGS", os.environ.get("XLA_FLAGS", ""))  # undo --host-devices' flag afterwards
+    tiny = ["--set", "agent.hidden=[16]", "--set", "agent.batch_size=16", "--host-devices", "1"]  # one program
     assert bench_train_main(["--config", "hopper_relu", "--lanes", "1,2", "--chunk-steps", "50",
                              "--repeats", "2", *tiny, "--variant", "matmul_dtype=bfloat16",
                              "--out", str(tmp_path)]) == 0

@@ -90,7 +90,7 @@ def _start_reference(tmp_path, total_steps: int) -> subprocess.Popen:
     """One process, the same 4 lanes split over 2 host devices (2 lanes per device, as in each of
     the 2 processes); :func:`_reference_dir` waits for it."""
     return subprocess.Popen([sys.executable, "-m", "swim_jax.train", *TINY, f"total_steps={total_steps}", "host_devices=2",
-                             f"out_dir={tmp_path / 'one'}"], cwd=REPO, env=_env(tmp_path), stdout=subprocess.PIPE,
+                             "lane_groups=false", f"out_dir={tmp_path / 'one'}"], cwd=REPO, env=_env(tmp_path), stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
 
 

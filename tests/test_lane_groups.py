@@ -43,7 +43,9 @@ def test_auto_host_devices_only_with_lane_groups(monkeypatch):
     cores = len(os.sched_getaffinity(0))
     on = cfgmod.resolve("hopper_relu", ["seeds=5", "lane_groups=true"])
     assert auto_host_devices(on) == (min(cores, 5) if cores >= 2 else 0)
-    assert auto_host_devices(cfgmod.resolve("hopper_relu", ["seeds=5"])) == 0  # off by default
+    assert auto_host_devices(cfgmod.resolve("hopper_relu", ["seeds=5"])) == auto_host_devices(on)  # on by default
+    assert auto_host_devices(cfgmod.resolve("hopper_relu", ["seeds=5", "lane_groups=false"])) == 0
+    assert auto_host_devices(cfgmod.resolve("hopper_relu", ["seeds=1", "lane_groups=true"])) == 0  # one real lane
     assert auto_host_devices(cfgmod.resolve("hopper_relu", ["seeds=5", "lane_groups=true", "host_devices=3"])) == 0
     monkeypatch.setenv("XLA_FLAGS", "--xla_force_host_platform_device_count=2")  # the user's own count wins
     assert auto_host_devices(on) == 0
@@ -54,26 +56,25 @@ def test_grouped_training_equals_one_program(tmp_path):
     against one program, float64, native physics, two chunks of two calls: the same evaluations,
     learning metrics (metrics.csv: the pieces' merged) and final actors to float rounding; the
     executables (each group's and the piece program on each device) all compiled before the first
-    call; steps per call that cannot be halved are refused before anything is written."""
+    call; and when there are no groups although asked for, why."""
     code = (
-        "import json, os, jax, numpy as np\n"
+        "import json, jax, numpy as np\n"
         "from swim_jax import config as c, train\n"
         "tiny = ['seeds=3','total_steps=2000','eval_freq=1000','progress_steps=500','learning_starts=500',"
         "'eval_episodes=2','replay_size=4000','agent.hidden=[16,16]','agent.batch_size=32','env.backend=mujoco',"
         "'precision=float64']\n"
         "lines = []\n"
         f"b = train.run(c.resolve('hopper_relu', tiny + ['lane_groups=true']), {str(tmp_path / 'groups')!r}, log=lines.append)\n"
-        f"a = train.run(c.resolve('hopper_relu', tiny), {str(tmp_path / 'one')!r}, log=lambda s: None)\n"
+        f"a = train.run(c.resolve('hopper_relu', tiny + ['lane_groups=false']), {str(tmp_path / 'one')!r}, log=lambda s: None)\n"
         "diff = max(float(np.max(np.abs(np.asarray(x) - np.asarray(y))))\n"
         "           for x, y in zip(jax.tree.leaves(a.final_actor), jax.tree.leaves(b.final_actor)))\n"
-        "try:\n"
-        f"    train.run(c.resolve('hopper_relu', tiny + ['lane_groups=true', 'progress_steps=125']), {str(tmp_path / 'odd')!r})\n"
-        "    refused = None\n"
-        "except c.ConfigError as e:\n"
-        "    refused = str(e)\n"
+        "from swim_jax.programs import groups_for\n"
+        "odd = groups_for(c.resolve('hopper_relu', tiny + ['progress_steps=125']), 3)\n"
+        "one_seed = groups_for(c.resolve('hopper_relu', tiny + ['seeds=1']), 2)\n"
+        "off = groups_for(c.resolve('hopper_relu', tiny + ['lane_groups=false']), 3)\n"
         "print(json.dumps({'a': a.evaluations.tolist(), 'b': b.evaluations.tolist(), 'lines': lines, 'diff': diff,\n"
         "  'timing': {k: b.timing[k] for k in ('devices', 'lane_groups', 'chunk_compiles')},\n"
-        f"  'refused': refused, 'odd_written': os.path.exists({str(tmp_path / 'odd')!r}),\n"
+        "  'odd': [odd[0] is None, odd[1]], 'one_seed': [one_seed[0] is None, one_seed[1]], 'off': [off[0] is None, off[1]],\n"
         "  'one_devices': a.timing['devices']}))\n"
     )
     out = _python(code, devices=2, timeout=900)
@@ -87,5 +88,7 @@ def test_grouped_training_equals_one_program(tmp_path):
     assert one["updates"].sum() == 3 * 1500  # every lane updates from step 500 on, in both runs
     for name in one.dtype.names:  # counts exact; losses, Q and returns to float rounding (nan where none)
         np.testing.assert_allclose(groups[name], one[name], rtol=1e-9, atol=1e-9, err_msg=name)
-    assert "125 steps per call is not a multiple of 2" in out["refused"] and "progress_steps" in out["refused"]
-    assert not out["odd_written"]
+    # no groups, and why: steps per call that cannot be halved; a padded single seed; none asked for
+    assert out["odd"][0] and "125 steps per call is not a multiple of 2" in out["odd"][1] and "progress_steps" in out["odd"][1]
+    assert out["one_seed"] == [True, ""]
+    assert out["off"] == [True, ""]

@@ -69,7 +69,7 @@ def test_sharded_training_equals_one_device_training(tmp_path):
         "'replay_size=4000','agent.hidden=[16,16]','agent.batch_size=32']\n"
         f"a = train.run(c.resolve('hopper_relu', tiny + ['shard_lanes=false']), {str(tmp_path / 'one')!r}, log=lambda s: None)\n"
         f"lines = []\n"
-        f"b = train.run(c.resolve('hopper_relu', tiny), {str(tmp_path / 'two')!r}, log=lines.append)\n"
+        f"b = train.run(c.resolve('hopper_relu', tiny + ['lane_groups=false']), {str(tmp_path / 'two')!r}, log=lines.append)\n"
         "print(json.dumps({'a': a.evaluations.tolist(), 'b': b.evaluations.tolist(), 'lines': lines,\n"
         "  'devices': b.timing['devices'], 'compiles': b.chunk_fn._cache_size()}))\n"
     )

@@ -75,19 +75,23 @@ def test_ours_command_puts_the_first_row_in_the_base_config_and_the_rest_in_vari
 
 
 def test_our_rows_names_each_row_by_the_entry_that_produced_it():
-    s = {"ours": ["native", "mjx", "native-bf16"], "lanes": 5}
+    s = {"ours": ["native", "mjx", "native-bf16", "native-one-program"], "lanes": 5}
+    groups = "5 lanes as 2 groups of 2, one per cpu device, 1 more in 2 pieces per call over them"
     res = {"rows": [
-        {"lanes": 5, "devices": 1, "variant": "", "env_steps_per_s": 300.0},
+        {"lanes": 5, "devices": 2, "lane_groups": groups, "variant": "", "env_steps_per_s": 300.0},
         {"lanes": 5, "devices": 1, "variant": "env.backend=mjx,matmul_dtype=full", "env_steps_per_s": 200.0},
         {"lanes": 5, "devices": 1, "variant": "env.backend=mujoco,matmul_dtype=bfloat16", "env_steps_per_s": 350.0},
+        {"lanes": 5, "devices": 1, "lane_groups": None, "variant": "env.backend=mujoco,matmul_dtype=full,lane_groups=false",
+         "env_steps_per_s": 250.0},
         {"lanes": 1, "devices": 1, "variant": "", "env_steps_per_s": 90.0},
     ]}
     rows = bench_peers.our_rows(res, s)
     assert {k: v["env_steps_per_s"] for k, v in rows.items()} == {
-        "ours-mujoco": 300.0, "ours-mjx": 200.0, "ours-mujoco-bf16": 350.0}
-    assert rows["ours-mujoco"]["label"] == "swim-jax, 5 lanes, native MuJoCo, float32"
-    assert rows["ours-mjx"]["label"] == "swim-jax, 5 lanes, MJX, float32"
-    assert rows["ours-mujoco-bf16"]["label"] == "swim-jax, 5 lanes, native MuJoCo, bfloat16 matmuls"
+        "ours-mujoco-groups": 300.0, "ours-mjx": 200.0, "ours-mujoco-bf16": 350.0, "ours-mujoco": 250.0}
+    assert rows["ours-mujoco-groups"]["label"] == "swim-jax, 5 lanes, native MuJoCo, float32, lane groups (2 devices)"
+    assert rows["ours-mujoco"]["label"] == "swim-jax, 5 lanes, native MuJoCo, float32, one program"
+    assert rows["ours-mjx"]["label"] == "swim-jax, 5 lanes, MJX, float32, one program"
+    assert rows["ours-mujoco-bf16"]["label"] == "swim-jax, 5 lanes, native MuJoCo, bfloat16 matmuls, one program"
 
 
 @pytest.mark.parametrize("ours", ["gpu", "native,native", ",", "native,fast"])
@@ -95,7 +99,7 @@ def test_bad_ours_is_one_line_exit_2_and_nothing_written(ours, tmp_path, capsys)
     out = tmp_path / "bench"
     assert bench_peers.main(["--ours", ours, "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "--ours" in err[0] and "mjx, native, native-bf16" in err[0]
+    assert len(err) == 1 and "--ours" in err[0] and "mjx, native, native-bf16, native-one-program" in err[0]
     assert not out.exists()
 
 

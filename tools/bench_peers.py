@@ -87,9 +87,11 @@ PEER_MODULES = ("torch", "jax", "flax", "optax", "gymnasium", "mujoco")
 SINGLE_THREAD_ENV = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
 BF16 = "matmul_dtype=bfloat16"  # our bfloat16 rows (float32 rows: matmul_dtype=full)
 # our rows (``--ours``): name → the config overrides of that row of ``python -m swim_jax.bench train``
+# (on several cores these run as lane groups, the default; "native-one-program" is the one-program form)
 OURS = {"mjx": ("env.backend=mjx", "matmul_dtype=full"),
         "native": ("env.backend=mujoco", "matmul_dtype=full"),
-        "native-bf16": ("env.backend=mujoco", BF16)}
+        "native-bf16": ("env.backend=mujoco", BF16),
+        "native-one-program": ("env.backend=mujoco", "matmul_dtype=full", "lane_groups=false")}
 
 
 class BadInput(Exception):
@@ -236,9 +238,13 @@ def our_rows(res: dict, s: dict) -> dict:
         name = by_variant[row["variant"]] if row.get("variant") else first
         backend = "mujoco" if name.startswith("native") else "mjx"
         bf16 = name.endswith("bf16")
-        key = f"ours-{backend}" + ("-bf16" if bf16 else "") + (f"-{row['devices']}dev" if row["devices"] > 1 else "")
+        groups = row.get("lane_groups")
+        placed = ("-groups" if groups else f"-{row['devices']}dev" if row["devices"] > 1 else "")
+        key = f"ours-{backend}" + ("-bf16" if bf16 else "") + placed
         label = (f"swim-jax, {s['lanes']} lanes, {'native MuJoCo' if backend == 'mujoco' else 'MJX'}"
-                 + (", bfloat16 matmuls" if bf16 else ", float32") + (f", {row['devices']} devices" if row["devices"] > 1 else ""))
+                 + (", bfloat16 matmuls" if bf16 else ", float32")
+                 + (f", lane groups ({row['devices']} devices)" if groups else f", {row['devices']} devices"
+                    if row["devices"] > 1 else ", one program"))
         rows[key] = {"env_steps_per_s": row["env_steps_per_s"], "label": label}
     return rows
 
