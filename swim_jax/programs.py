@@ -212,8 +212,9 @@ def placement(cfg: Config, log: Callable[[str], None]):
     one program per group of lanes, one group per device) and no sharding; otherwise no groups and
     the sharding of the lane axis over the devices of every process, or None (all lanes on one
     device). ``log`` gets how (when there are several devices; why there are no lane groups when
-    only the steps per call stand in the way) and a warning when ``host_devices`` asks for more than JAX started
-    with. ConfigError when several processes run and the lanes cannot be split over all their devices."""
+    only the steps per call stand in the way) and a warning when ``host_devices`` asks for more
+    than JAX started with. ConfigError when several processes run and the lanes cannot be split
+    over all their devices."""
     count = num_lanes(cfg)
     if cfg.host_devices and jax.devices()[0].platform == "cpu" and jax.local_device_count() != cfg.host_devices:
         log(f"warning: host_devices={cfg.host_devices} but JAX started with {jax.local_device_count()} devices; "

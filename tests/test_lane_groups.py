@@ -56,7 +56,8 @@ def test_grouped_training_equals_one_program(tmp_path):
     against one program, float64, native physics, two chunks of two calls: the same evaluations,
     learning metrics (metrics.csv: the pieces' merged) and final actors to float rounding; the
     executables (each group's and the piece program on each device) all compiled before the first
-    call; and when there are no groups although asked for, why."""
+    call; resumed from a checkpoint, the same run bit for bit; and when there are no groups although
+    asked for, why."""
     code = (
         "import json, jax, numpy as np\n"
         "from swim_jax import config as c, train\n"
@@ -68,11 +69,18 @@ def test_grouped_training_equals_one_program(tmp_path):
         f"a = train.run(c.resolve('hopper_relu', tiny + ['lane_groups=false']), {str(tmp_path / 'one')!r}, log=lambda s: None)\n"
         "diff = max(float(np.max(np.abs(np.asarray(x) - np.asarray(y))))\n"
         "           for x, y in zip(jax.tree.leaves(a.final_actor), jax.tree.leaves(b.final_actor)))\n"
+        "import shutil\n"
+        f"shutil.copytree({str(tmp_path / 'groups')!r}, {str(tmp_path / 'resumed')!r})\n"
+        f"shutil.rmtree({str(tmp_path / 'resumed' / 'checkpoints' / '2000')!r})\n"
+        f"r = train.run(c.resolve('hopper_relu', tiny + ['lane_groups=true']), {str(tmp_path / 'resumed')!r}, resume=True, log=lambda s: None)\n"
+        "resumed = max(float(np.max(np.abs(np.asarray(x) - np.asarray(y))))\n"
+        "              for x, y in zip(jax.tree.leaves(r.final_actor), jax.tree.leaves(b.final_actor)))\n"
         "from swim_jax.programs import groups_for\n"
         "odd = groups_for(c.resolve('hopper_relu', tiny + ['progress_steps=125']), 3)\n"
         "one_seed = groups_for(c.resolve('hopper_relu', tiny + ['seeds=1']), 2)\n"
         "off = groups_for(c.resolve('hopper_relu', tiny + ['lane_groups=false']), 3)\n"
         "print(json.dumps({'a': a.evaluations.tolist(), 'b': b.evaluations.tolist(), 'lines': lines, 'diff': diff,\n"
+        "  'resumed': resumed, 'r': r.evaluations.tolist(),\n"
         "  'timing': {k: b.timing[k] for k in ('devices', 'lane_groups', 'chunk_compiles')},\n"
         "  'odd': [odd[0] is None, odd[1]], 'one_seed': [one_seed[0] is None, one_seed[1]], 'off': [off[0] is None, off[1]],\n"
         "  'one_devices': a.timing['devices']}))\n"
@@ -83,6 +91,8 @@ def test_grouped_training_equals_one_program(tmp_path):
     assert out["timing"]["chunk_compiles"] == 4  # group and piece program on each device, up front; none later
     assert out["diff"] < 1e-9
     np.testing.assert_allclose(out["b"], out["a"], rtol=1e-9, atol=1e-9)
+    # resumed from the step-1000 checkpoint (split again from the whole state): the same run exactly
+    assert out["resumed"] == 0.0 and out["r"] == out["b"]
     one, groups = (np.genfromtxt(tmp_path / run / "metrics.csv", delimiter=",", names=True) for run in ("one", "groups"))
     assert len(one) == 6 and one.dtype.names == groups.dtype.names
     assert one["updates"].sum() == 3 * 1500  # every lane updates from step 500 on, in both runs

@@ -29,13 +29,16 @@ peers are
 
 both run with ``--peer-python`` (a Python that has torch, jax, flax, optax, gymnasium[mujoco]).
 
-Ours is ONE process as our users run it (JAX's default threading, all cores): the project's own
+Ours is ONE process as our users run it (on several cores the default ``lane_groups=true``: one
+program per core on its own host CPU device; ``native-one-program``: one program for all lanes,
+JAX's default threading): the project's own
 whole-program benchmark ``python -m swim_jax.bench train`` for the env's ``*_relu`` config with
 ``--lanes`` lanes (seeds of one vmapped program, every step an update), ``--chunk-steps`` = ``--steps``,
 timed for both env backends (MJX and ``env.backend=mujoco``) with float32 matmuls
 (``matmul_dtype=full``) and for native physics with bfloat16 matmuls (``matmul_dtype=bfloat16``, what
 ``auto`` picks on a CPU with AVX-512 BF16 or AMX), or only the rows named by ``--ours`` (e.g.
-``--ours native`` for the float32 native row alone: more rounds in the same time); its env-steps/s
+``--ours native`` for the float32 native row alone: more rounds in the same time;
+``--ours native,native-one-program`` for lane groups against one program); its env-steps/s
 count all lanes. Ours runs with
 this script's own Python (``sys.executable``).
 
@@ -45,7 +48,8 @@ background load) do not favour one program. Reported per env and program: the me
 the aggregate env-steps/s, its min–max, and for ours the ratio ours / best peer (medians) and the
 paired ratios: ours / the best peer of the same round, per round and their median. The JSON
 written to ``<out>/peers-<UTC stamp>.json`` has every raw number (each process's JSON line, each of
-our bench runs' JSON), the CPU model (lscpu), date and command line. Also recorded per peer run: the
+our bench runs' JSON), the CPU model (lscpu), date and command line; it is rewritten after every env
+(``finished`` stays null until the last), so an interrupted run keeps the envs it completed. Also recorded per peer run: the
 wall-clock aggregate P·steps / (last end − first start), the overlap of the P timed windows and the
 CPU time per wall second of each process (≈ 1 for a really single-threaded process).
 
@@ -350,21 +354,22 @@ def main(argv=None) -> int:
         return 2
     started = time.gmtime()
     results = {}
-    try:
-        for env_id in s["envs"]:
-            results[env_id] = bench_env(env_id, s)
-            print("\n" + markdown(env_id, results[env_id], s) + "\n", flush=True)
-    except RuntimeError as e:
-        print(f"bench_peers.py: {e}", file=sys.stderr)
-        return 1
     doc = {
-        "benchmark": "peers", "date": time.strftime("%Y-%m-%dT%H:%M:%SZ", started),
-        "finished": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+        "benchmark": "peers", "date": time.strftime("%Y-%m-%dT%H:%M:%SZ", started), "finished": None,
         "command": shlex.join([sys.executable, *sys.argv] if argv is None else [sys.executable, __file__, *argv]),
         "cpu_model": cpu_model(), "cpu_count": os.cpu_count(), "python": sys.executable,
         "settings": s, "results": results,
     }
-    write_result(s["out"], "peers", doc, started)
+    try:
+        for env_id in s["envs"]:
+            results[env_id] = bench_env(env_id, s)
+            print("\n" + markdown(env_id, results[env_id], s) + "\n", flush=True)
+            # after every env (same file), so an interrupted run keeps the envs it finished
+            doc["finished"] = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()) if env_id == s["envs"][-1] else None
+            write_result(s["out"], "peers", doc, started)
+    except RuntimeError as e:
+        print(f"bench_peers.py: {e}", file=sys.stderr)
+        return 1
     return 0
 
 
