@@ -23,7 +23,7 @@ batched over q lanes instead of L): a float64 run's final actors agree to 3e-16
 
 :class:`GroupedChunks` runs the training calls that way: :meth:`~GroupedChunks.split` a whole-lane
 state into :class:`Parts` once, :meth:`~GroupedChunks.step` them call after call (asynchronously:
-each device works through its own queue; nothing waits between calls or between chunks), and
+each device works through its own queue; nothing waits between calls), and
 :meth:`~GroupedChunks.join` a whole-lane copy (on the first device) where the evaluation, the NaN
 check and the checkpoint read one; training goes on from the parts. The executables (each program
 on each device) are compiled before the first call, concurrently, so none is compiled while training.
