@@ -84,6 +84,11 @@ class Programs:
 _PROGRAMS: dict = {}
 
 
+def real_lanes(cfg: Config) -> int:
+    """The lanes that train a seed of a sweep point: sweep points × ``seeds`` (no padding lane)."""
+    return len(cfgmod.sweep_points(cfg)) * cfg.seeds
+
+
 def num_lanes(cfg: Config) -> int:
     """Width of the vmapped lane axis: sweep points × ``seeds``, or 2 for a padded single-lane run.
 
@@ -92,7 +97,7 @@ def num_lanes(cfg: Config) -> int:
     multi-seed run. Lanes ≥ 2 compute each seed bit-identically at the same lane count per device
     (tests/test_train.py); another lane count rounds the updates differently (XLA compiles the
     batched bias-gradient reductions per shape; ~1e-8 after one update, docs/DISTRIBUTED.md)."""
-    real = len(cfgmod.sweep_points(cfg)) * cfg.seeds
+    real = real_lanes(cfg)
     return 2 if real == 1 and cfg.pad_single_seed else real
 
 
@@ -160,11 +165,6 @@ class Lanes:
     sweep_args: tuple  # (hparams,) with a sweep, () without: the extra argument of chunk_fn/eval_fn
     sharding: object  # the lane axis' sharding over devices, or None (one device)
     groups: lane_groups.LaneGroups | None = None  # one program per group of lanes (CPU), or None
-
-
-def real_lanes(cfg: Config) -> int:
-    """The lanes that train a seed of a sweep point: sweep points × ``seeds`` (no padding lane)."""
-    return len(cfgmod.sweep_points(cfg)) * cfg.seeds
 
 
 def auto_host_devices(cfg: Config) -> int:

@@ -64,7 +64,7 @@ from swim_jax.distributed import to_host
 from swim_jax.lane_groups import GroupedChunks
 from swim_jax.programs import (Lanes, Programs, auto_host_devices, backends_started, grouped_chunks,
                                lanes as program_lanes, matmul_dtype, num_lanes, placement, programs,
-                               use_compilation_cache)
+                               real_lanes, use_compilation_cache)
 from swim_jax.sharding import place, set_host_devices
 
 USAGE = (
@@ -351,7 +351,7 @@ def train_chunk(cfg: Config, chunk_fn, states, c: int, sweep_args, sharding, say
             now = time.time()
             done = (j + 1) * per_call
             rate = done / (now - t0)
-            say(f"step {t + per_call}/{cfg.total_steps}: {rate * cfg.seeds * len(cfgmod.sweep_points(cfg)):.0f} env-steps/s in this chunk, "
+            say(f"step {t + per_call}/{cfg.total_steps}: {rate * real_lanes(cfg):.0f} env-steps/s in this chunk, "
                 f"evaluation in {_fmt_time((cfg.eval_freq - done) / rate)}")
             last = now
     if grouped is not None:

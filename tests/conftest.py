@@ -3,6 +3,11 @@
 import jax
 import pytest
 
+# Start JAX's backends now, so that in-process runs see one CPU device whichever test comes first:
+# train.run asks for one host device per core (lane_groups, on by default) only before they start.
+# Lane groups are tested in subprocesses with their own XLA_FLAGS (tests/test_lane_groups.py).
+jax.devices()
+
 
 @pytest.fixture
 def x64():
