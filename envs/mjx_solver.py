@@ -20,6 +20,15 @@ path, so where both stop at ``opt.tolerance`` their answers differ by about the 
 different order), for what Gymnasium's locomotion XMLs use: the Newton solver, the pyramidal
 cone, no friction loss. Anything else is passed to MJX's own solver. Under ``vmap`` the loops
 run until the slowest element is done (MJX's line search always runs all its iterations).
+
+One addition for float32: the line search's slope tolerance (``tolerance * ls_tolerance *
+|search| / scale``, about 1e-10 relative for Gymnasium's XMLs) is below what float32 can resolve,
+so C's rule alone ran nearly every search to its cap (``ls_iterations``) on steps with contacts,
+changing nothing. A slope smaller than 8 ulps of the magnitude of its terms counts as zero (the
+same idea as MJX's own acceptance tolerance, ``8 eps |slope terms|``). In float64 that floor lies
+far below C's tolerance, which then decides as before (the float64 equivalence tests, 1e-8, are
+the proof); in float32 it cut an MJX Walker2d step at 5 lanes to 0.74x (docs/BENCHMARKS.md §13).
+The solve also records its Newton iteration count in ``d._impl.solver_niter``, as MuJoCo C does.
 Installed by :mod:`envs.mjx_compat`.
 
 Scale: ``1 / trace(M)`` as in MuJoCo 3.17+ (and MJX's ``_trace_m``). Islands: C solves each
@@ -111,6 +120,16 @@ def _point_fn(d, ctx, jv, mv):
     return point
 
 
+_SLOPE_NOISE = 8.0  # slopes below this many ulps of their terms' magnitude count as zero
+
+
+def _slope_magnitude(d, ctx, jv):
+    """Sum of the magnitudes of the terms of the line's slope at alpha = 0 (search·Ma,
+    qfrc_smooth·search and every row's D·jv·Jaref): the scale of its rounding error."""
+    gauss = jnp.dot(jnp.abs(ctx.search), jnp.abs(ctx.Ma) + jnp.abs(d.qfrc_smooth))
+    return gauss + jnp.sum(jnp.abs(jv * d._impl.efc_D * ctx.Jaref))
+
+
 def _newton(p: _Point) -> jax.Array:
     return p.alpha - p.d0 / p.d1
 
@@ -158,13 +177,15 @@ def _bracket_step(point, gtol, s):
 
 def linesearch(m, d, ctx, scale):
     """C's ``PrimalSearch`` along ``ctx.search``: returns (alpha, improvement = -(cost(alpha) -
-    cost(0)), M·search, J·search). alpha = 0 means no step (the outer loop then stops)."""
+    cost(0)), M·search, J·search). alpha = 0 means no step (the outer loop then stops). The slope
+    tolerance is C's, or the slope's rounding floor where that is larger (module docstring)."""
     n_max = m.opt.ls_iterations
     snorm = jnp.linalg.norm(ctx.search)
-    gtol = m.opt.tolerance * m.opt.ls_tolerance * snorm / scale
     mv = support.mul_m(m, d, ctx.search)
     jv = d._impl.efc_J @ ctx.search
     point = _point_fn(d, ctx, jv, mv)
+    gtol = jnp.maximum(m.opt.tolerance * m.opt.ls_tolerance * snorm / scale,
+                       _SLOPE_NOISE * jnp.finfo(snorm.dtype).eps * _slope_magnitude(d, ctx, jv))
 
     zero = jnp.zeros_like(snorm)
     p0 = point(zero)
@@ -255,4 +276,5 @@ def solve(m, d):
         "qfrc_constraint": ctx.qfrc_constraint,
         "qacc": ctx.qacc,
         "_impl.efc_force": ctx.efc_force,
+        "_impl.solver_niter": ctx.solver_niter,
     })

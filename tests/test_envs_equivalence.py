@@ -135,3 +135,21 @@ def test_reset_distribution_matches_gymnasium(env_id):
     np.testing.assert_allclose(o_std, g_std, rtol=0.1, atol=1e-7)
     np.testing.assert_array_equal(np.asarray(states.done), 0.0)
     np.testing.assert_array_equal(np.asarray(states.info["steps"]), 0.0)
+
+
+
+def test_line_search_slope_floor_changes_nothing_at_float32_precision(monkeypatch):
+    """envs/mjx_solver.py counts a line-search slope below 8 ulps of its terms' magnitude as zero,
+    so in float32 the search stops where rounding stops it instead of running to its cap (the
+    float64 tolerance is out of float32's reach). Teacher-forced Hopper steps with contacts: the
+    floor moves the float32 observations by far less than their 1e-4 bound to Gymnasium (2.4e-7
+    measured), and stays within that bound."""
+    from envs import mjx_solver
+
+    rec = gr.record("Hopper-v5", 200, "random", seed=7)
+    obs = {}
+    for name, noise in (("floor", mjx_solver._SLOPE_NOISE), ("none", 0.0)):
+        monkeypatch.setattr(mjx_solver, "_SLOPE_NOISE", noise)
+        obs[name] = np.asarray(gr.run_teacher_forced(envs.make("Hopper-v5"), rec).obs, np.float64)
+    assert np.abs(obs["floor"] - obs["none"]).max() <= 1e-5
+    assert np.abs(obs["floor"] - rec["obs"]).max() <= ATOL_F32
