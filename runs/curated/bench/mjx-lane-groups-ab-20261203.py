@@ -30,6 +30,7 @@ from swim_jax.timing import time_interleaved  # noqa: E402
 env_id, batch = sys.argv[1], int(sys.argv[2])
 repeats = int(sys.argv[3]) if len(sys.argv) > 3 else 9
 scan_len, calls = 100, 3
+SLOPE_FLOOR = mjx_solver._SLOPE_NOISE  # the default, before program() sets it
 env = envs.make(env_id)
 
 
@@ -57,8 +58,8 @@ def one_program(slope_noise: float):
 def grouped(groups: lane_groups.LaneGroups):
     """Per call: every group's program on its device, then each leftover lane's pieces in turn."""
     D = len(groups.devices)
-    group_runs = [program(groups.per_group, scan_len, 8.0, d) for d in groups.devices]
-    pieces = [program(1, scan_len // D, 8.0, d) for d in groups.devices]  # a leftover lane's piece per device
+    group_runs = [program(groups.per_group, scan_len, SLOPE_FLOOR, d) for d in groups.devices]
+    pieces = [program(1, scan_len // D, SLOPE_FLOOR, d) for d in groups.devices]  # a leftover lane's piece per device
 
     def run():
         group_states = [s for _c, s, _k in group_runs]
@@ -74,7 +75,7 @@ def grouped(groups: lane_groups.LaneGroups):
     return run
 
 
-cands = {"one program, no floor (before)": one_program(0.0), "one program, slope floor": one_program(8.0)}
+cands = {"one program, no floor (before)": one_program(0.0), "one program, slope floor": one_program(SLOPE_FLOOR)}
 groups = lane_groups.plan(batch, jax.devices(), scan_len)
 if groups is not None:
     cands[f"lane groups ({groups.describe()}), slope floor"] = grouped(groups)
