@@ -1,4 +1,4 @@
-"""Benchmarks: ``python -m swim_jax.bench {activations,rsqrt,envs,train,processes,profile} [options]``.
+"""Benchmarks: ``python -m swim_jax.bench {activations,rsqrt,envs,train,processes,study,profile} [options]``.
 
 Every benchmark compiles first, interleaves its candidates in one process, prints a table of
 medians (and min–max), and writes a JSON file under runs/bench/. See docs/BENCHMARKS.md for the
@@ -9,12 +9,13 @@ from __future__ import annotations
 
 import sys
 
-USAGE = """usage: python -m swim_jax.bench {activations,rsqrt,envs,train,processes,profile} [options]
+USAGE = """usage: python -m swim_jax.bench {activations,rsqrt,envs,train,processes,study,profile} [options]
   activations  elementwise fwd / fwd+bwd, TD3 actor inference (Table III), full TD3 update
   rsqrt        accuracy (every float32 mantissa) and speed of the inverse-square-root variants
   envs         MJX env steps/s vs native MuJoCo
   train        whole training program (env step + update) throughput vs number of lanes/seeds
   processes    the same lanes as 1 process, 1 process × N host devices, N processes × 1 core
+  study        study cells one at a time on all cores vs N at once, each on its own cores
   profile      where a training step's time goes: XLA operations by kind, matrix products' rates
 run a subcommand with --help for its options"""
 
@@ -35,6 +36,8 @@ def main(argv: list[str] | None = None) -> int:
         from swim_jax.bench_train import main as run
     elif command == "processes":
         from swim_jax.bench_processes import main as run
+    elif command == "study":
+        from swim_jax.bench_study import main as run
     elif command == "profile":
         from swim_jax.bench_profile import main as run
     elif command == "envs":
@@ -45,7 +48,7 @@ def main(argv: list[str] | None = None) -> int:
             return 2
     else:
         print(
-            f"swim_jax.bench: unknown benchmark {command!r}; valid: activations, rsqrt, envs, train, processes, profile",
+            f"swim_jax.bench: unknown benchmark {command!r}; valid: activations, rsqrt, envs, train, processes, study, profile",
             file=sys.stderr,
         )
         return 2

@@ -21,6 +21,8 @@ Outputs in ``<out_dir>/<name>-<UTC timestamp>/``:
                                returns as TensorBoard event files (swim_jax/tensorboard_log.py)
   activation_params.csv        learnable k/beta per layer, seed and evaluation (learnable runs)
   point.json                   sweep points only: the point's label and swept values
+  provenance.json              one entry per start/resume: git commit and dirty flag, package
+                               versions, CPU model, command line (swim_jax/provenance.py)
 
 A sweep (``python -m swim_jax.sweep``, config key ``sweep``) trains every grid point × seed as a
 lane of the same program; the run folder then holds ``sweep.csv`` (one row per point) and, per
@@ -57,7 +59,7 @@ import yaml
 
 from agents.loop import CHECKED, ChunkMetrics
 from swim_jax import config as cfgmod
-from swim_jax import distributed, learning_log, local_processes, outputs
+from swim_jax import distributed, learning_log, local_processes, outputs, provenance
 from swim_jax.checkpoint import Checkpointer, latest_complete_step
 from swim_jax.config import Config, ConfigError
 from swim_jax.distributed import to_host
@@ -149,6 +151,8 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
         states = _restore(ckpt, restored, prog, lanes, evals)
         log(f"resumed {run_dir} at step {restored}")
     folder.start_logs(restored, closing)  # cut after that checkpoint, or (none) started afresh
+    if folder.writes:
+        provenance.record(run_dir, restored or 0)  # code, packages, CPU and command of this stretch
     if restored is None:
         states = _initial_states(cfg, prog, lanes, folder, evals, say)
         if resume:

@@ -1,0 +1,244 @@
+"""``python -m swim_jax.study``: study files, the skip / resume / start logic on a tiny study of real
+runs (MuJoCo C physics, small nets), --status, --slurm, --report, cell locks and provenance.
+
+One module fixture builds a study folder in the state a user meets after an interruption: cell 0
+finished, cell 1 stopped after its first checkpoint (its training raised there), cell 2 never
+started. The study command is then run for real (subprocesses pinned to cores) and must skip 0,
+resume 1 from its checkpoint and start 2.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import yaml
+
+from swim_jax import provenance, study, train
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+TINY = {
+    "name": "tiny",
+    "envs": ["hopper"],
+    "activations": ["swim", "relu", "swish"],
+    "seeds": 2,
+    "total_steps": 2000,
+    "overrides": {"env.backend": "mujoco", "eval_freq": 1000, "learning_starts": 500, "eval_episodes": 2,
+                  "replay_size": 4000, "agent.hidden": [32, 32], "agent.batch_size": 32,
+                  "env.max_episode_steps": 200},
+}
+
+
+def write_study(tmp_path, data: dict, name: str = "tiny.yaml") -> str:
+    path = os.path.join(tmp_path, name)
+    with open(path, "w") as f:
+        yaml.safe_dump(data, f)
+    return path
+
+
+def cli(*args: str, env: dict | None = None) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "swim_jax.study", *args], cwd=REPO, capture_output=True, text=True,
+                          env=env)
+
+
+class Interrupted(Exception):
+    pass
+
+
+@pytest.fixture(scope="module")
+def interrupted(tmp_path_factory):
+    """(study file, study): cell 0 done, cell 1 stopped after its step-1000 checkpoint, cell 2 not started."""
+    tmp = tmp_path_factory.mktemp("study")
+    path = write_study(str(tmp), {**TINY, "out_dir": str(tmp / "out")})
+    s = study.load(path)
+    assert study.run_cell(s.cells[0], log=lambda _: None) == 0
+
+    def stop_after_first_chunk(line: str) -> None:
+        if line.startswith("step "):  # logged after the chunk's checkpoint was saved
+            raise Interrupted
+
+    c1 = s.cells[1]
+    with pytest.raises(Interrupted):
+        train.run(c1.cfg, c1.run_dir, log=stop_after_first_chunk)
+    return path, s
+
+
+def test_cells_in_order_with_stable_folders(interrupted):
+    path, s = interrupted
+    assert [c.name for c in s.cells] == ["hopper_swim", "hopper_relu", "hopper_swish"]
+    assert [c.run_dir for c in s.cells] == [os.path.join(s.out_dir, c.name) for c in s.cells]
+    assert all(c.cfg.seeds == 2 and c.cfg.total_steps == 2000 and c.cfg.env.backend == "mujoco" for c in s.cells)
+    assert [c.cfg.agent.activation.name for c in s.cells] == ["swim", "relu", "swish"]
+
+
+def test_status_before_resume(interrupted):
+    path, s = interrupted
+    states = [study.cell_state(c) for c in s.cells]
+    assert [(x.state, x.step) for x in states] == [("done", 2000), ("started", 1000), ("left", 0)]
+    res = cli(path, "--status")
+    assert res.returncode == 0, res.stderr
+    rows = {line.split()[0]: line.split() for line in res.stdout.splitlines()[1:4]}
+    assert rows["hopper_swim"][1:3] == ["done", "2000/2000"]
+    assert rows["hopper_relu"][1:3] == ["started", "1000/2000"]
+    assert rows["hopper_swish"][1:3] == ["left", "0/2000"]
+    assert "1/3 done, 0 running, 1 started, 1 not started; 3000 steps left" in res.stdout
+    assert "ETA 0:" in res.stdout  # the finished cell measured the seconds per step
+
+
+def test_partial_report_is_marked(interrupted, tmp_path):
+    path, s = interrupted
+    out = str(tmp_path / "report")
+    res = cli(path, "--report", out)
+    assert res.returncode == 0, res.stderr
+    text = open(os.path.join(out, "REPORT.md")).read()
+    assert "**Partial study**: 2 cell(s) not finished" in text and "hopper_relu (started, step 1000)" in text
+    cells = json.load(open(os.path.join(out, "study.json")))["cells"]
+    assert [c["state"] for c in cells] == ["done", "started", "left"]
+
+
+def test_slurm_script_runs_a_cell(interrupted, tmp_path):
+    path, s = interrupted
+    res = cli(path, "--slurm", "--cpus-per-task", "2", "--hours", "3")
+    assert res.returncode == 0, res.stderr
+    script = res.stdout
+    assert "#SBATCH --array=0-2" in script and "#SBATCH --cpus-per-task=2" in script and "#SBATCH --time=3:00:00" in script
+    assert "--cell $SLURM_ARRAY_TASK_ID" in script and "0=hopper_swim 1=hopper_relu 2=hopper_swish" in script
+    # the array task of the finished cell, as SLURM would run it: the cell is skipped
+    sh = tmp_path / "job.sh"
+    sh.write_text(script)
+    done = subprocess.run(["bash", str(sh)], capture_output=True, text=True,
+                          env=dict(os.environ, SLURM_ARRAY_TASK_ID="0"))
+    assert done.returncode == 0, done.stderr
+    assert "hopper_swim: done; skipped" in done.stdout
+
+
+def test_a_locked_cell_is_not_run_twice(interrupted):
+    path, s = interrupted
+    c = s.cells[2]
+    with study.cell_lock(c.run_dir) as held:
+        assert held and study.is_locked(c.run_dir)
+        assert study.cell_state(c).state == "running"
+        res = cli(path, "--cell", "hopper_swish")
+        assert res.returncode == 0 and "already being trained by another process" in res.stdout
+    assert not study.is_locked(c.run_dir)
+    assert not os.path.exists(os.path.join(c.run_dir, "config.yaml"))
+
+
+@pytest.fixture(scope="module")
+def finished(interrupted):
+    """The study command run on the interrupted folder: (study file, study, its output)."""
+    path, s = interrupted
+    before = {n: open(os.path.join(s.cells[0].run_dir, n), "rb").read()
+              for n in ("evaluations.csv", "final_policy.npz", "timing.json", "provenance.json")}
+    res = cli(path, "--parallel", "2")
+    return path, s, res, before
+
+
+def test_study_skips_resumes_and_starts(finished):
+    path, s, res, before = finished
+    assert res.returncode == 0, res.stdout + res.stderr
+    out = res.stdout
+    assert "hopper_swim: done; skipped" in out
+    assert "hopper_relu: started (cores 0" in out and "hopper_swish: started (cores 1" in out
+    assert "study tiny: 3/3 cells done" in out
+    # the finished cell was not touched
+    for n, data in before.items():
+        assert open(os.path.join(s.cells[0].run_dir, n), "rb").read() == data, n
+    # cell 1 resumed from its checkpoint; cell 2 started at step 0
+    log1 = open(os.path.join(s.cells[1].run_dir, study.LOG_FILE)).read()
+    assert "hopper_relu: resuming" in log1 and f"resumed {s.cells[1].run_dir} at step 1000" in log1
+    assert [e["step"] for e in provenance.read(s.cells[1].run_dir)] == [0, 1000]
+    assert "hopper_swish: starting" in open(os.path.join(s.cells[2].run_dir, study.LOG_FILE)).read()
+    assert [e["step"] for e in provenance.read(s.cells[2].run_dir)] == [0]
+    for c in s.cells:
+        ev = np.load(os.path.join(c.run_dir, "evaluations.npy"))
+        assert ev.shape == (3, 2) and np.isfinite(ev).all()
+        assert study.cell_state(c).state == "done"
+    # and again: nothing left to do
+    again = cli(path)
+    assert again.returncode == 0 and again.stdout.count("done; skipped") == 3
+
+
+def test_full_report(finished, tmp_path):
+    path, s, _, _ = finished
+    out = str(tmp_path / "report")
+    res = cli(path, "--report", out)
+    assert res.returncode == 0, res.stderr
+    text = open(os.path.join(out, "REPORT.md")).read()
+    assert "## The study" in text and "Partial study" not in text and "pools the **3 finished**" in text
+    assert "Table II" in text and os.path.isfile(os.path.join(out, "figure4.png"))
+    assert f"--cell hopper_swish" in text
+
+
+def test_provenance_of_a_cell(finished):
+    path, s, _, _ = finished
+    e = provenance.read(s.cells[2].run_dir)[0]
+    head = subprocess.run(["git", "-C", REPO, "rev-parse", "HEAD"], capture_output=True, text=True)
+    if head.returncode == 0:
+        assert e["git"]["commit"] == head.stdout.strip() and isinstance(e["git"]["dirty"], bool)
+    import jax
+    import mujoco
+
+    assert e["packages"]["jax"] == jax.__version__ and e["packages"]["mujoco"] == mujoco.__version__
+    assert set(provenance.PACKAGES) <= set(e["packages"])
+    assert e["command"][1:3] == ["-m", "swim_jax.study"] and e["command"][-2:] == ["--cell", "hopper_swish"]
+    assert e["cpu"] and e["cores"] >= 1 and e["step"] == 0
+
+
+# ------------------------------------------------------------------------------------------------
+# bad input: one line, exit 2, nothing started or written
+# ------------------------------------------------------------------------------------------------
+
+BAD = [
+    ({"envs": ["hopper"], "activations": ["swim"], "colour": 1}, "unknown key 'colour'; valid keys: name, out_dir"),
+    ({"envs": ["hopper"]}, "activations must be a non-empty list"),
+    ({"envs": ["hoppr"], "activations": ["swim"]}, "no config 'hoppr_swim'"),
+    ({"seeds": 2}, "name the cells' configs"),
+    ({"configs": ["hopper_swim"], "overrides": {"seeds": 3}}, "overrides.seeds is set by the study itself"),
+    ({"configs": ["hopper_swim"], "overrides": {"agent.tau": "x"}}, "cell hopper_swim: agent.tau: expected float"),
+    ({"configs": ["hopper_swim"], "total_steps": 1234}, "must be a multiple of eval_freq"),
+    ({"configs": ["hopper_swim"], "grid": {"agent.tau": [0.005, 0.01]}}, "cannot be pooled"),
+    ({"configs": ["hopper_swim"], "grid": {"agent.tau": []}}, "grid.agent.tau must be a non-empty list"),
+]
+
+
+@pytest.mark.parametrize("data,message", BAD, ids=[m.split()[0] for _, m in BAD])
+def test_bad_study_file(tmp_path, capsys, data, message):
+    path = write_study(str(tmp_path), {**data, "out_dir": str(tmp_path / "out")})
+    assert study.main([path]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("study: error: ") and message in err and err.count("\n") == 1
+    assert not os.path.exists(tmp_path / "out")
+
+
+def test_bad_options(tmp_path, capsys):
+    path = write_study(str(tmp_path), {"configs": ["hopper_swim"], "out_dir": str(tmp_path / "out")})
+    for argv, message in [([str(tmp_path / "none.yaml")], "not found"),
+                          ([path, "--parallel", "0"], "--parallel 0: must be between 1 and"),
+                          ([path, "--cell", "hopper_relu"], "no such cell; valid: hopper_swim"),
+                          ([path, "--cell", "5"], "the study has 1 cells (0..0)"),
+                          ([path, "--bench", "x.json"], "go with --report"),
+                          ([path, "--report", str(tmp_path / "r")], "no finished cell")]:
+        assert study.main(argv) == 2, argv
+        err = capsys.readouterr().err
+        assert message in err and err.count("\n") == 1, (argv, err)
+    assert not os.path.exists(tmp_path / "out") and not os.path.exists(tmp_path / "r")
+    with open(path, "w") as f:
+        f.write("envs: [hopper\n")
+    assert study.main([path]) == 2 and "invalid YAML" in capsys.readouterr().err
+
+
+def test_a_changed_study_is_refused(interrupted, tmp_path, capsys):
+    path, s = interrupted
+    changed = yaml.safe_load(open(path))
+    changed["total_steps"] = 3000
+    other = write_study(str(tmp_path), changed, "changed.yaml")
+    before = sorted(os.listdir(s.out_dir))
+    assert study.main([other, "--status"]) == 2
+    err = capsys.readouterr().err
+    assert "cell hopper_swim:" in err and "was started with total_steps=2000, the study now gives total_steps=3000" in err
+    assert sorted(os.listdir(s.out_dir)) == before
