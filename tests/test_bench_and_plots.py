@@ -16,7 +16,7 @@ from swim_jax.bench_activations import main_rsqrt
 def test_unknown_benchmark_exits_2_with_valid_choices(capsys):
     assert bench.main(["bogus"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert err == ["swim_jax.bench: unknown benchmark 'bogus'; valid: activations, rsqrt, envs, train, processes, profile"]
+    assert err == ["swim_jax.bench: unknown benchmark 'bogus'; valid: activations, rsqrt, envs, train, processes, study, profile"]
 
 
 @pytest.mark.parametrize(
