@@ -59,9 +59,9 @@ PLACEMENT_KEYS = frozenset({"out_dir", "keep_checkpoints", "shard_lanes", "host_
                             "compilation_cache", "progress_steps"})
 LOCK_FILE = "study.lock"
 LOG_FILE = "train.log"
-# cells run at once when --parallel is not given: measured fastest on this project's 2-core machine
-# (docs/BENCHMARKS.md, "cells at once")
-DEFAULT_PARALLEL = 2
+# cells run at once when --parallel is not given: one cell on every core was measured fastest in the
+# learning phase on this project's 2-core machine (docs/BENCHMARKS.md, "cells at once")
+DEFAULT_PARALLEL = 1
 
 
 class StudyError(ValueError):
@@ -591,7 +591,7 @@ def _parser():
     what.add_argument("--cell", metavar="NAME|INDEX", help="train (resume, skip) this one cell in this process")
     p.add_argument("--parallel", type=int, default=None,
                    help=f"cells at once, each pinned to its share of the cores (default {DEFAULT_PARALLEL}, "
-                        "or the cores when fewer)")
+                        "measured fastest: docs/BENCHMARKS.md, 'cells at once')")
     p.add_argument("--bench", action="append", default=[], metavar="FILE",
                    help="with --report: activation benchmark JSON for Table III (repeatable)")
     p.add_argument("--force", action="store_true", help="with --report: write into a non-empty DIR")
