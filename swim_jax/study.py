@@ -329,7 +329,9 @@ def _is_done(c: Cell) -> bool:
 
 def _seconds_per_step(c: Cell, done: bool) -> tuple[float | None, float | None]:
     """(measured wall seconds per env step, wall seconds of the last stretch): from timing.json of a
-    finished cell (the stretch since its last resume), else from its checkpoints' times."""
+    finished cell (the stretch since its last resume), else from the times of its two newest
+    checkpoints, counted only when both lie in the learning phase (the random warm-up before
+    ``learning_starts`` is several times faster per step and would make the ETA far too short)."""
     if done:
         with open(os.path.join(c.run_dir, "timing.json")) as f:
             t = json.load(f)
@@ -338,6 +340,7 @@ def _seconds_per_step(c: Cell, done: bool) -> tuple[float | None, float | None]:
         return (t["wall_time_s"] / steps if steps > 0 else None), t["wall_time_s"]
     ckpt = os.path.join(c.run_dir, "checkpoints")
     steps = sorted(int(n) for n in os.listdir(ckpt) if n.isdigit()) if os.path.isdir(ckpt) else []
+    steps = [s for s in steps if s >= c.cfg.learning_starts]
     if len(steps) < 2:
         return None, None
     a, b = steps[-2], steps[-1]
@@ -384,7 +387,7 @@ def status_table(study: Study, parallel: int) -> str:
         eta = f"ETA {_fmt_time(left_steps * per_step / parallel)} at {parallel} cell(s) at once " \
               f"({per_step * 1000:.1f} ms per step measured over {len(rates)} cell(s))"
     else:
-        eta = "done" if not left_steps else "ETA ? (no cell has two checkpoints yet)"
+        eta = "done" if not left_steps else "ETA ? (no cell has two checkpoints in its learning phase yet)"
     lines.append(f"study {study.name}: {counts['done']}/{len(states)} done, {counts['running']} running, "
                  f"{counts['started']} started, {counts['left']} not started; {left_steps} steps left; {eta}")
     lines.append(f"out_dir: {study.out_dir}")
