@@ -30,6 +30,8 @@ PRECISIONS = ("float32", "float64")
 MATMUL_PRECISIONS = ("highest", "high", "default")
 MATMUL_DTYPES = ("auto", "full", "bfloat16")
 NATIVE_CALLS = envs.NATIVE_CALLS
+# env.backend: "auto" (MuJoCo C on a CPU, MJX on an accelerator) or one of the envs' backends
+PHYSICS_BACKENDS = ("auto", *envs.BACKENDS)
 
 
 class ConfigError(ValueError):
@@ -38,7 +40,9 @@ class ConfigError(ValueError):
 
 @dataclass(frozen=True)
 class EnvConfig:
-    """Environment id (``envs.ENV_IDS``), its time limit and physics backend (``mjx``: MJX in
+    """Environment id (``envs.ENV_IDS``), its time limit and physics backend (``auto``, the
+    default: ``mujoco`` when JAX runs on a CPU, ``mjx`` on a GPU/TPU, resolved when a run starts
+    and recorded so in its config.yaml, swim_jax/programs.py ``physics_backend``; ``mjx``: MJX in
     JAX, batched on any device; ``mujoco``: MuJoCo C on the host from inside the jitted program,
     bit for bit Gymnasium's physics and the faster one on a CPU, see envs/native.py). With
     ``mujoco``, ``native_call`` chooses how the program reaches MuJoCo C: ``auto`` (an XLA FFI call
@@ -46,7 +50,7 @@ class EnvConfig:
 
     id: str = "Walker2d-v5"
     max_episode_steps: int = 1000
-    backend: str = "mjx"
+    backend: str = "auto"
     native_call: str = "auto"
 
 
@@ -295,8 +299,8 @@ def validate(cfg: Config) -> Config:
     """Semantic checks (env id, activation, precision, step arithmetic); returns cfg."""
     if cfg.env.id not in envs.ENV_IDS:
         raise ConfigError(f"unknown env.id {cfg.env.id!r}; valid: {', '.join(envs.ENV_IDS)}")
-    if cfg.env.backend not in envs.BACKENDS:
-        raise ConfigError(f"unknown env.backend {cfg.env.backend!r}; valid: {', '.join(envs.BACKENDS)}")
+    if cfg.env.backend not in PHYSICS_BACKENDS:
+        raise ConfigError(f"unknown env.backend {cfg.env.backend!r}; valid: {', '.join(PHYSICS_BACKENDS)}")
     if cfg.env.native_call not in NATIVE_CALLS:
         raise ConfigError(f"unknown env.native_call {cfg.env.native_call!r}; valid: {', '.join(NATIVE_CALLS)}")
     act = cfg.agent.activation

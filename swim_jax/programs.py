@@ -33,11 +33,31 @@ def _setup_precision(cfg: Config) -> None:
     jax.config.update("jax_enable_x64", cfg.precision == "float64")
 
 
+def physics_backend(cfg: Config) -> tuple[str, str]:
+    """(the physics backend ``cfg`` runs, why, in words for the start-up line). ``env.backend=auto``
+    is ``mujoco`` (MuJoCo C inside the jitted program, faster on a CPU: docs/BENCHMARKS.md) when
+    JAX's default backend is the CPU, else ``mjx``; asking for it starts JAX's backends."""
+    if cfg.env.backend != "auto":
+        return cfg.env.backend, f"env.backend={cfg.env.backend}"
+    platform = jax.default_backend()
+    if platform == "cpu":
+        return "mujoco", "env.backend=auto on a CPU: MuJoCo C, the faster there; env.backend=mjx for MJX"
+    return "mjx", f"env.backend=auto on {platform}: MJX; env.backend=mujoco for MuJoCo C on the host"
+
+
+def with_physics_backend(cfg: Config) -> Config:
+    """``cfg`` with ``env.backend=auto`` replaced by what :func:`physics_backend` chooses here."""
+    backend, _ = physics_backend(cfg)
+    return cfg if backend == cfg.env.backend else dataclasses.replace(
+        cfg, env=dataclasses.replace(cfg.env, backend=backend))
+
+
 def build(cfg: Config):
     """(env, eval env, agent) for a validated config, in the configured precision."""
     _setup_precision(cfg)
-    options = dict(max_episode_steps=cfg.env.max_episode_steps, backend=cfg.env.backend)
-    if cfg.env.backend == "mujoco":
+    backend, _ = physics_backend(cfg)
+    options = dict(max_episode_steps=cfg.env.max_episode_steps, backend=backend)
+    if backend == "mujoco":
         options["native_call"] = cfg.env.native_call
     try:
         env, eval_env = envs.make(cfg.env.id, **options), envs.make(cfg.env.id, **options)

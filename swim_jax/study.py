@@ -246,6 +246,8 @@ def _check_existing(c: Cell) -> None:
     with open(path) as f:
         recorded = yaml.safe_load(f) or {}
     want = cfgmod.to_dict(c.cfg)
+    if want["env"]["backend"] == "auto":  # the cell's run recorded what auto chose where it started
+        want["env"]["backend"] = (recorded.get("env") or {}).get("backend", "auto")
     diff = sorted(k for k in cfgmod._flatten_paths(_comparable(want)).keys() | cfgmod._flatten_paths(_comparable(recorded)).keys()
                   if cfgmod._flatten_paths(_comparable(want)).get(k) != cfgmod._flatten_paths(_comparable(recorded)).get(k))
     if diff:
@@ -403,6 +405,16 @@ def cell_command(study: Study, key: str, python: str = sys.executable) -> list[s
     return [python, "-m", "swim_jax.study", study.path, "--out-dir", study.out_dir, "--cell", key]
 
 
+def _recorded_backend(c: Cell) -> Config:
+    """The cell's config with ``env.backend=auto`` replaced by the backend its run folder recorded
+    (a resumed cell keeps the physics it started with, whichever machine resumes it)."""
+    if c.cfg.env.backend != "auto":
+        return c.cfg
+    with open(os.path.join(c.run_dir, "config.yaml")) as f:
+        recorded = ((yaml.safe_load(f) or {}).get("env") or {}).get("backend", "auto")
+    return dataclasses.replace(c.cfg, env=dataclasses.replace(c.cfg.env, backend=recorded))
+
+
 def run_cell(c: Cell, log: Callable[[str], None] = print) -> int:
     """Train cell ``c`` in this process: skip it when done or running elsewhere, resume it from its
     newest checkpoint when started, else start it. Returns the exit status (0, or 3 on NaN/inf)."""
@@ -417,8 +429,9 @@ def run_cell(c: Cell, log: Callable[[str], None] = print) -> int:
             return 0
         resume = os.path.isfile(os.path.join(c.run_dir, "config.yaml"))
         log(f"{c.name}: {'resuming' if resume else 'starting'} in {c.run_dir}")
+        cfg = _recorded_backend(c) if resume else c.cfg
         try:
-            res = train.run(c.cfg, c.run_dir, resume=resume, log=log, status=log)
+            res = train.run(cfg, c.run_dir, resume=resume, log=log, status=log)
         except train.NonFiniteError as e:
             log(f"error: {e}")
             return 3

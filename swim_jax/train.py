@@ -63,10 +63,11 @@ from swim_jax import distributed, learning_log, local_processes, outputs, proven
 from swim_jax.checkpoint import Checkpointer, latest_complete_step
 from swim_jax.config import Config, ConfigError
 from swim_jax.distributed import to_host
+from swim_jax.heartbeat import Heartbeat
 from swim_jax.lane_groups import GroupedChunks
 from swim_jax.programs import (Lanes, Programs, auto_host_devices, backends_started, grouped_chunks,
-                               lanes as program_lanes, matmul_dtype, num_lanes, placement, programs,
-                               real_lanes, use_compilation_cache)
+                               lanes as program_lanes, matmul_dtype, num_lanes, physics_backend, placement,
+                               programs, real_lanes, use_compilation_cache, with_physics_backend)
 from swim_jax.sharding import place, set_host_devices
 
 USAGE = (
@@ -117,22 +118,26 @@ def run(cfg: Config, run_dir: str, resume: bool = False, log: Callable[[str], No
         use_compilation_cache()
     previous_x64 = bool(jax.config.jax_enable_x64)
     t_start = time.time()
-    say = (lambda m: status(f"[{_fmt_time(time.time() - t_start)}] {m}")) if status else (lambda m: None)
+    stamped = (lambda m: status(f"[{_fmt_time(time.time() - t_start)}] {m}")) if status else (lambda m: None)
+    # every line goes through the heartbeat, which prints one itself after PROGRESS_EVERY_S of silence
+    beat = Heartbeat(stamped, PROGRESS_EVERY_S if status else 0.0)
+    physics_why = physics_backend(cfg)[1]
+    cfg = with_physics_backend(cfg)  # env.backend=auto chosen now; config.yaml records the choice
     try:
         # traced (compiled) under the matmul precision; ``closing`` closes the run's open files
-        with jax.default_matmul_precision(cfg.matmul_precision), contextlib.ExitStack() as closing:
-            return _run(cfg, run_dir, resume, log, say, closing)
+        with jax.default_matmul_precision(cfg.matmul_precision), contextlib.ExitStack() as closing, beat:
+            return _run(cfg, run_dir, resume, lambda line: beat.say(line, out=log), beat, closing, physics_why)
     finally:
         jax.config.update("jax_enable_x64", previous_x64)
 
 
 def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
-         say: Callable[[str], None], closing: contextlib.ExitStack) -> RunResult:
+         say: Heartbeat, closing: contextlib.ExitStack, physics_why: str = "") -> RunResult:
     """The training loop: build the program, start (from the newest checkpoint when resuming),
     then per chunk of ``eval_freq`` steps: train, stop on NaN/inf, evaluate, log, checkpoint,
     write the evaluations and ``log`` a progress line; finally the final policy and timing."""
     clock = _Clock(time.time())
-    say(f"building {cfg.env.id} ({cfg.env.backend} physics, {cfg.precision}) and the TD3 program for "
+    say(f"building {cfg.env.id} ({cfg.env.backend} physics: {physics_why}; {cfg.precision}) and the TD3 program for "
         f"{num_lanes(cfg)} lanes; {matmul_dtype(cfg)[1]}")
     sharding, groups = placement(cfg, log)
     prog = programs(cfg, sharding)
@@ -168,22 +173,27 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
             say(f"compiling the training program and running its first {cfg.eval_freq} steps "
                 f"(compiles take seconds to minutes on a CPU; cached for the next run)")
         if grouped is None:
-            states, metrics = train_chunk(cfg, prog.chunk_fn, states, c, lanes.sweep_args, lanes.sharding, say)
+            states, metrics = train_chunk(cfg, prog.chunk_fn, states, c, lanes.sweep_args, lanes.sharding, say,
+                                          beat=say)
         else:
             states = None  # the previous chunk's copy goes before the next is made
-            parts, metrics = train_chunk(cfg, prog.chunk_fn, parts, c, lanes.sweep_args, lanes.sharding, say, grouped)
+            parts, metrics = train_chunk(cfg, prog.chunk_fn, parts, c, lanes.sweep_args, lanes.sharding, say,
+                                         grouped, beat=say)
             states = grouped.join(parts)
         bad = to_host(states.bad_step)  # waits for the chunk
         dt = clock.trained(time.time() - t0, cfg.eval_freq)
         step = (c + 1) * cfg.eval_freq
         _stop_if_non_finite(cfg, folder.points, bad[: folder.real_lanes], ckpt, run_dir)
+        say.doing(f"evaluating at step {step} ({cfg.eval_episodes} episodes per lane)")
         folder.evaluation(c + 1, evals.run(states, c + 1), states.agent)
         folder.chunk(step, metrics, to_host(states.episodes), to_host(states.last_return))
+        say.doing(f"writing the checkpoint at step {step}")
         ckpt.save(step, (states, evals.saved()))
         folder.evaluations(evals.returns, c + 2)
-        clock.iteration_done(time.time() - t0)
+        clock.iteration_done(time.time() - t0, learning=step > cfg.learning_starts, first=c == start)
         log(_progress_line(cfg, folder.points, step, evals.returns[c + 1, : folder.real_lanes], dt, c == start,
-                           clock.elapsed(), clock.eta(n_chunks - c - 1), metrics, prog.agent.matmul_dtype is not None))
+                           clock.elapsed(), clock.eta(*_chunks_left(cfg, c + 1)), metrics,
+                           prog.agent.matmul_dtype is not None))
     final_actor = outputs.flat_params(jax.tree.map(lambda x: x[: folder.real_lanes], to_host(states.agent.actor)))
     folder.final_policy(final_actor)
     timing = _timing(cfg, prog, lanes, evals, clock, start if resume else None, grouped)
@@ -242,13 +252,15 @@ class _Evaluations:
 @dataclass
 class _Clock:
     """Wall-clock accounting of a run: the first chunk (with its compilation) apart from the others,
-    whose env steps give the throughput, and whole chunk iterations for the ETA."""
+    whose env steps give the throughput, and whole chunk iterations per phase (random warm-up,
+    learning) for the ETA."""
 
     start: float
     train_s: float = 0.0  # chunks after the first
     steps_timed: int = 0  # their env steps per lane
     first_chunk_s: float | None = None
-    walls: list[float] = field(default_factory=list)  # chunk iterations (train + eval + checkpoint)
+    walls: dict = field(default_factory=lambda: {False: [], True: []})  # iterations by phase (learning?)
+    first_wall: dict = field(default_factory=dict)  # phase -> the run's first iteration (with its compile)
 
     def trained(self, dt: float, steps: int) -> float:
         if self.first_chunk_s is None:
@@ -258,16 +270,48 @@ class _Clock:
             self.steps_timed += steps
         return dt
 
-    def iteration_done(self, wall: float) -> None:
-        self.walls.append(wall)
+    def iteration_done(self, wall: float, learning: bool, first: bool = False) -> None:
+        """One chunk iteration (train + evaluation + checkpoint) of ``wall`` seconds in the
+        learning phase or the warm-up; the run's ``first`` (its compilation inside) is kept apart."""
+        if first:
+            self.first_wall[learning] = wall
+        else:
+            self.walls[learning].append(wall)
 
     def elapsed(self) -> float:
         return time.time() - self.start
 
-    def eta(self, chunks_left: int) -> float:
-        # recent iterations: the learning phase is much slower than the uniform-random warm-up
-        typical = np.mean(self.walls[1:][-3:]) if len(self.walls) > 1 else self.walls[0]
-        return typical * chunks_left
+    def eta(self, warmup_left: int, learning_left: int) -> ETA:
+        """Seconds for the chunks left: each phase's at its recent iterations' mean (the learning
+        phase is several times slower per step than the warm-up); a lower bound (``ETA.known``
+        false) while learning chunks are left and none was timed yet."""
+        def typical(learning: bool) -> float | None:
+            w = self.walls[learning]
+            return float(np.mean(w[-3:])) if w else self.first_wall.get(learning)
+
+        warm, learn = typical(False), typical(True)
+        known = learn is not None or learning_left == 0
+        seconds = warmup_left * (warm or 0.0) + learning_left * (learn if learn is not None else (warm or 0.0))
+        return ETA(seconds, known)
+
+
+@dataclass(frozen=True)
+class ETA:
+    """Seconds left; ``known`` false: a lower bound (the learning phase is not timed yet)."""
+
+    seconds: float
+    known: bool = True
+
+    def __str__(self) -> str:
+        return _fmt_time(self.seconds) if self.known else f">{_fmt_time(self.seconds)} (learning phase not timed yet)"
+
+
+def _chunks_left(cfg: Config, done: int) -> tuple[int, int]:
+    """(warm-up chunks, learning chunks) after the first ``done`` chunks; a chunk is learning when
+    any of its steps is (its end step > ``learning_starts``)."""
+    n = cfg.total_steps // cfg.eval_freq
+    warm = min(n, cfg.learning_starts // cfg.eval_freq)
+    return max(0, warm - done), n - max(done, warm)
 
 
 def _timing(cfg: Config, prog: Programs, lanes: Lanes, evals: _Evaluations, clock: _Clock,
@@ -329,35 +373,40 @@ PROGRESS_EVERY_S = 30.0
 
 
 def train_chunk(cfg: Config, chunk_fn, states, c: int, sweep_args, sharding, say,
-                grouped: GroupedChunks | None = None):
-    """Chunk ``c`` (``eval_freq`` steps) as calls of ``steps_per_call(cfg)`` steps each; between
-    calls, at most every ``PROGRESS_EVERY_S`` seconds, ``say`` gets the step, env-steps/s and the
-    chunk's ETA. Re-placing keeps the input sharding identical every call (no recompilation).
+                grouped: GroupedChunks | None = None, beat: Heartbeat | None = None):
+    """Chunk ``c`` (``eval_freq`` steps) as calls of ``steps_per_call(cfg)`` steps each.
+    Re-placing keeps the input sharding identical every call (no recompilation).
+    With ``beat`` (the run's :class:`~swim_jax.heartbeat.Heartbeat`) each call is waited for and
+    named as the run's activity, and after a call, once ``PROGRESS_EVERY_S`` seconds passed since
+    the run's last line, ``say`` gets the step, env-steps/s and the time to the chunk's evaluation
+    (the heartbeat speaks while a call runs longer than that).
     With ``grouped`` (swim_jax/lane_groups.py) ``states`` are its :class:`~swim_jax.lane_groups.Parts`
     (so is what it returns) and every call runs as the lane groups' programs (``chunk_fn``,
     ``sweep_args`` and ``sharding`` unused: the parts hold their arguments).
     Returns (states, the chunk's per-lane learning metrics, ``learning_log.combine``)."""
     per_call = cfgmod.steps_per_call(cfg)
     calls = cfg.eval_freq // per_call
-    t0 = last = time.time()
+    t0 = time.time()
     metrics = []
     for j in range(calls):
         t = c * cfg.eval_freq + j * per_call
+        if beat is not None:
+            beat.doing(f"training steps {t}-{t + per_call} of {cfg.total_steps}")
         if grouped is None:
             states, m = chunk_fn(states, jnp.asarray(t, jnp.int32), *sweep_args)
             states = place(states, sharding)
         else:
             states, m = grouped.step(states, t)
         metrics.append(m)
-        if j + 1 < calls and time.time() - last >= PROGRESS_EVERY_S:
-            # wait for the call (cheap: a few ints)
-            states.ready() if grouped is not None else jax.block_until_ready(states.bad_step)
-            now = time.time()
+        if beat is None or j + 1 == calls:
+            continue
+        # wait for the call (cheap: a few ints), so the step and the rate are the real ones
+        states.ready() if grouped is not None else jax.block_until_ready(states.bad_step)
+        if time.monotonic() - beat.last_line >= PROGRESS_EVERY_S:
             done = (j + 1) * per_call
-            rate = done / (now - t0)
+            rate = done / (time.time() - t0)
             say(f"step {t + per_call}/{cfg.total_steps}: {rate * real_lanes(cfg):.0f} env-steps/s in this chunk, "
                 f"evaluation in {_fmt_time((cfg.eval_freq - done) / rate)}")
-            last = now
     if grouped is not None:
         metrics = [grouped.join_metrics(to_host(m), _merge_pieces) for m in metrics]
     return states, learning_log.combine(to_host(metrics))
@@ -369,7 +418,7 @@ def _merge_pieces(pieces: list) -> ChunkMetrics:
 
 
 def _progress_line(cfg: Config, points, step: int, ev: np.ndarray, dt: float, first: bool,
-                   elapsed: float, eta: float, chunk_metrics: dict | None = None, bf16: bool = False) -> str:
+                   elapsed: float, eta: ETA | float, chunk_metrics: dict | None = None, bf16: bool = False) -> str:
     """One line per chunk: step, throughput (", bf16 matmuls" when ``bf16``), eval mean ± std over
     seeds (per point for sweeps), and, once updates run, the chunk's critic loss and Q₁ averaged
     over the lanes."""
@@ -386,7 +435,7 @@ def _progress_line(cfg: Config, points, step: int, ev: np.ndarray, dt: float, fi
     if chunk_metrics is not None and np.any(chunk_metrics["updates"][: P * S] > 0):
         line += (f" | critic loss {np.nanmean(chunk_metrics['critic_loss'][: P * S]):.3g}"
                  f", Q {np.nanmean(chunk_metrics['q_mean'][: P * S]):.3g}")
-    return line + f" | elapsed {_fmt_time(elapsed)} | ETA {_fmt_time(eta)}"
+    return line + f" | elapsed {_fmt_time(elapsed)} | ETA {eta if isinstance(eta, ETA) else _fmt_time(eta)}"
 
 
 def _fmt_time(sec: float) -> str:

@@ -24,7 +24,8 @@ from swim_jax import learned_params, outputs, programs, report, runs_io, sweep, 
 from swim_jax.render import RenderError, load_policy
 
 TINY = ["seeds=2", "total_steps=3000", "eval_freq=1000", "learning_starts=1000", "eval_episodes=3",
-        "replay_size=5000", "agent.hidden=[16,16]", "agent.batch_size=32", "agent.activation.learnable=true"]
+        "replay_size=5000", "agent.hidden=[16,16]", "agent.batch_size=32", "agent.activation.learnable=true",
+        "env.backend=mjx"]  # the MJX backend's training program, end to end (tests/test_train.py: MuJoCo C)
 KS = (0.5, 1.0)
 
 

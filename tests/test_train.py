@@ -26,7 +26,7 @@ from tensorboardX.proto.event_pb2 import Event, SessionLog
 from agents import loop
 from swim_jax import config as cfgmod
 from swim_jax import learning_log, report, tensorboard_log, train
-from swim_jax.programs import matmul_dtype, programs
+from swim_jax.programs import matmul_dtype, programs, with_physics_backend
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TINY = [
@@ -38,9 +38,9 @@ TINY = [
     "replay_size=10000",
     "agent.hidden=[64,64]",
     "agent.batch_size=64",
-    # MuJoCo C physics (bit for bit Gymnasium's, tests/test_envs_native.py): the program compiles in
-    # seconds; the MJX backend's training program is exercised end to end by tests/test_sweep.py
-    "env.backend=mujoco",
+    # env.backend=auto, the default: MuJoCo C physics on a CPU (bit for bit Gymnasium's,
+    # tests/test_envs_native.py), whose program compiles in seconds; the MJX backend's training
+    # program is exercised end to end by tests/test_sweep.py (env.backend=mjx)
 ]
 CONFIG = "hopper_relu"
 VMAPPED = ("tensorboard=true",)  # the module fixture's run also writes TensorBoard event files
@@ -100,8 +100,11 @@ def test_outputs_and_progress_lines(vmapped):
     assert all(("bf16 matmuls" in line) == bf16 for line in vmapped.lines)
     # keep_checkpoints=3 of the 4 chunk checkpoints
     assert sorted(os.listdir(os.path.join(d, "checkpoints"))) == ["2000", "3000", "4000"]
-    # the resolved config round-trips
-    assert train.parse_args(["--resume", d])[0] == tiny(*VMAPPED)
+    # env.backend=auto chose MuJoCo C on this CPU and config.yaml records the choice, so a resumed
+    # run keeps its physics wherever it resumes; the resolved config round-trips
+    assert tiny().env.backend == "auto"
+    assert train.parse_args(["--resume", d])[0] == with_physics_backend(tiny(*VMAPPED))
+    assert train.parse_args(["--resume", d])[0].env.backend == "mujoco"
 
 
 def test_no_recompilation_after_first_chunk(vmapped):
@@ -368,7 +371,7 @@ def test_nan_detection_names_seed_step_and_quantity(vmapped):
         (["config=walker_swim", "precision=float16"], "valid: float32, float64"),
         (["config=walker_swim", "matmul_precision=tf32"], "valid: highest, high, default"),
         (["config=walker_swim", "matmul_dtype=float16"], "valid: auto, full, bfloat16"),
-        (["config=walker_swim", "env.backend=bullet"], "unknown env.backend 'bullet'; valid: mjx, mujoco"),
+        (["config=walker_swim", "env.backend=bullet"], "unknown env.backend 'bullet'; valid: auto, mjx, mujoco"),
         (["config=walker_swim", "env.native_call=python"], "unknown env.native_call 'python'; valid: auto, ffi, callback"),
         (["config=walker_swim", "total_steps=12345"], "multiple of eval_freq"),
         (["config=walker_swim", "bogus"], "expected config=<name>"),
