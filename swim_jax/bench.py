@@ -1,4 +1,4 @@
-"""Benchmarks: ``python -m swim_jax.bench {activations,rsqrt,envs,train,processes,study,profile} [options]``.
+"""Benchmarks: ``python -m swim_jax.bench {activations,rsqrt,envs,train,processes,study,profile,checkpoint,startup} [options]``.
 
 Every benchmark compiles first, interleaves its candidates in one process, prints a table of
 medians (and min–max), and writes a JSON file under runs/bench/. See docs/BENCHMARKS.md for the
@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import sys
 
-USAGE = """usage: python -m swim_jax.bench {activations,rsqrt,envs,train,processes,study,profile} [options]
+USAGE = """usage: python -m swim_jax.bench {activations,rsqrt,envs,train,processes,study,profile,checkpoint,startup} [options]
   activations  elementwise fwd / fwd+bwd, TD3 actor inference (Table III), full TD3 update
   rsqrt        accuracy (every float32 mantissa) and speed of the inverse-square-root variants
   envs         MJX env steps/s vs native MuJoCo
@@ -17,6 +17,8 @@ USAGE = """usage: python -m swim_jax.bench {activations,rsqrt,envs,train,process
   processes    the same lanes as 1 process, 1 process × N host devices, N processes × 1 core
   study        study cells one at a time on all cores vs N at once, each on its own cores
   profile      where a training step's time goes: XLA operations by kind, matrix products' rates
+  checkpoint   a checkpoint's seconds and disk at the main job's scale: whole state vs appended replay
+  startup      seconds to the main job's first lines and its longest silence, cold and warm caches
 run a subcommand with --help for its options"""
 
 
@@ -40,6 +42,10 @@ def main(argv: list[str] | None = None) -> int:
         from swim_jax.bench_study import main as run
     elif command == "profile":
         from swim_jax.bench_profile import main as run
+    elif command == "checkpoint":
+        from swim_jax.bench_checkpoint import main as run
+    elif command == "startup":
+        from swim_jax.bench_startup import main as run
     elif command == "envs":
         try:
             from envs.bench import main as run
@@ -48,7 +54,7 @@ def main(argv: list[str] | None = None) -> int:
             return 2
     else:
         print(
-            f"swim_jax.bench: unknown benchmark {command!r}; valid: activations, rsqrt, envs, train, processes, study, profile",
+            f"swim_jax.bench: unknown benchmark {command!r}; valid: activations, rsqrt, envs, train, processes, study, profile, checkpoint, startup",
             file=sys.stderr,
         )
         return 2

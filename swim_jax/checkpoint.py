@@ -30,6 +30,7 @@ class Checkpointer:
         self.manager = ocp.CheckpointManager(
             self.directory,
             options=ocp.CheckpointManagerOptions(max_to_keep=keep, create=True),
+            item_handlers=ocp.StandardCheckpointHandler(),  # (so a new manager reads item metadata)
         )
 
     def save(self, step: int, tree) -> None:
@@ -40,6 +41,20 @@ class Checkpointer:
     def latest_step(self) -> int | None:
         """The newest complete checkpoint's step, or None."""
         return self.manager.latest_step()
+
+    def all_steps(self) -> list[int]:
+        """The steps of every kept checkpoint, oldest first."""
+        return sorted(self.manager.all_steps())
+
+    def stored_keys(self, step: int) -> set[str]:
+        """The leaf keys (``"00000"``, ...) checkpoint ``step`` holds (zero-size leaves are never
+        stored), from its metadata alone."""
+        return set(self.manager.item_metadata(int(step)).tree.keys())
+
+    @staticmethod
+    def keys_of(tree) -> set[str]:
+        """The leaf keys :meth:`save` stores for ``tree`` (arrays or ShapeDtypeStructs)."""
+        return {f"{i:05d}" for i, leaf in enumerate(jax.tree.leaves(tree)) if np.prod(np.shape(leaf)) > 0}
 
     def restore(self, step: int, template, shardings=None):
         """Checkpoint ``step`` as a tree shaped like ``template`` (arrays or ShapeDtypeStructs).

@@ -64,6 +64,8 @@ from swim_jax.checkpoint import Checkpointer, latest_complete_step
 from swim_jax.config import Config, ConfigError
 from swim_jax.distributed import to_host
 from swim_jax.heartbeat import Heartbeat
+from swim_jax.replay_store import DIRNAME as REPLAY_DIR
+from swim_jax.replay_store import ReplayStore
 from swim_jax.lane_groups import GroupedChunks
 from swim_jax.programs import (Lanes, Programs, auto_host_devices, backends_started, grouped_chunks,
                                lanes as program_lanes, matmul_dtype, num_lanes, physics_backend, placement,
@@ -150,10 +152,11 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
     folder = outputs.RunFolder(cfg, run_dir, lanes.seed_ids, writes=distributed.is_writer())
     folder.create(fresh=not resume)
     ckpt = Checkpointer(os.path.join(run_dir, "checkpoints"), keep=cfg.keep_checkpoints)
+    store = ReplayStore(os.path.join(run_dir, "checkpoints", REPLAY_DIR), cfg.replay_size)
     evals = _Evaluations(cfg, prog, lanes)
     restored = ckpt.latest_step() if resume else None  # continue after the newest checkpoint, if any
     if restored is not None:
-        states = _restore(ckpt, restored, prog, lanes, evals)
+        states = _restore(ckpt, store, restored, prog, lanes, evals)
         log(f"resumed {run_dir} at step {restored}")
     folder.start_logs(restored, closing)  # cut after that checkpoint, or (none) started afresh
     if folder.writes:
@@ -188,7 +191,7 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
         folder.evaluation(c + 1, evals.run(states, c + 1), states.agent)
         folder.chunk(step, metrics, to_host(states.episodes), to_host(states.last_return))
         say.doing(f"writing the checkpoint at step {step}")
-        ckpt.save(step, (states, evals.saved()))
+        _save(ckpt, store, step, cfg.eval_freq, states, evals)
         folder.evaluations(evals.returns, c + 2)
         clock.iteration_done(time.time() - t0, learning=step > cfg.learning_starts, first=c == start)
         log(_progress_line(cfg, folder.points, step, evals.returns[c + 1, : folder.real_lanes], dt, c == start,
@@ -203,15 +206,51 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
                      prog.eval_fn, timing)
 
 
-def _restore(ckpt: Checkpointer, step: int, prog: Programs, lanes: Lanes, evals: _Evaluations):
-    """The training state of the checkpoint at ``step``; its evaluations go into ``evals``."""
-    template = (jax.eval_shape(prog.init_fn, *lanes.init_args), evals.saved())
+def _without_replay(states):
+    """``states`` with the replay buffer's arrays replaced by zero-size ones (not checkpointed by
+    orbax: swim_jax/replay_store.py keeps them); works on arrays and ShapeDtypeStructs."""
+    empty = jax.tree.map(lambda a: np.zeros((0,), a.dtype), states.buffer.data)
+    return states._replace(buffer=states.buffer._replace(data=empty))
+
+
+def _save(ckpt: Checkpointer, store: ReplayStore, step: int, eval_freq: int, states, evals: _Evaluations) -> None:
+    """Checkpoint ``step``: the chunk's new transitions appended to the replay store (each written
+    once), then the rest of the training state and the evaluations as an orbax checkpoint, then
+    the segments no kept checkpoint needs deleted."""
+    n0, n1 = store.new_range(step - eval_freq, step)
+    slots = jnp.asarray(store.slots(n0, n1))
+    new = to_host(jax.tree.map(lambda a: a[:, slots], states.buffer.data))  # (a collective)
+    if distributed.is_writer():
+        store.append(n0, n1, new._asdict())
+    ckpt.save(step, (_without_replay(states), evals.saved()))
+    if distributed.is_writer():
+        store.prune(ckpt.all_steps())
+
+
+def _restore(ckpt: Checkpointer, store: ReplayStore, step: int, prog: Programs, lanes: Lanes, evals: _Evaluations):
+    """The training state of the checkpoint at ``step``; its evaluations go into ``evals``. The
+    replay buffer comes from the replay store, or, for a checkpoint written before it existed
+    (the whole buffer inside), from the checkpoint itself."""
+    full = jax.eval_shape(prog.init_fn, *lanes.init_args)
+    whole = ckpt.stored_keys(step) == Checkpointer.keys_of((full, evals.saved()))
+    template = ((full if whole else _without_replay(full)), evals.saved())
     shardings = None
     if lanes.sharding is not None:  # the lanes straight onto their devices; the evaluations whole on each
         everywhere = jax.sharding.NamedSharding(lanes.sharding.mesh, jax.sharding.PartitionSpec())
         shardings = (jax.tree.map(lambda _: lanes.sharding, template[0]), everywhere)
     states, saved_evals = ckpt.restore(step, template, shardings)
     evals.returns[:] = to_host(saved_evals)
+    if not whole:
+        like = {k: (a.shape, a.dtype) for k, a in full.buffer.data._asdict().items()}
+        host = store.rebuild(step, like)
+
+        def put(x):
+            if lanes.sharding is None:
+                return jnp.asarray(x)
+            return jax.make_array_from_callback(x.shape, lanes.sharding, lambda index: x[index])
+
+        data = type(full.buffer.data)(**{k: put(v) for k, v in host.items()})
+        states = states._replace(buffer=states.buffer._replace(data=data))
     return place(states, lanes.sharding)
 
 

@@ -1,5 +1,6 @@
 """The benchmark and figure CLIs: real runs on tiny settings, output files checked, bad input."""
 
+import glob
 import json
 import math
 import os
@@ -16,7 +17,7 @@ from swim_jax.bench_activations import main_rsqrt
 def test_unknown_benchmark_exits_2_with_valid_choices(capsys):
     assert bench.main(["bogus"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert err == ["swim_jax.bench: unknown benchmark 'bogus'; valid: activations, rsqrt, envs, train, processes, study, profile"]
+    assert err == ["swim_jax.bench: unknown benchmark 'bogus'; valid: activations, rsqrt, envs, train, processes, study, profile, checkpoint, startup"]
 
 
 @pytest.mark.parametrize(
@@ -347,3 +348,30 @@ def test_profile_benchmark_counts_the_training_steps_products(tmp_path):
     critic_update = sum(x.flops for x in dots[False] if min(_sizes(x)) > 1)
     assert 2 * critic_update <= found <= 2 * (per_step(lambda x: True) + acting)
     assert res["lanes"] == 2 and res["kinds"] and res["timed_ms_per_step"] > 0
+
+
+def test_startup_bench_times_the_lines_of_a_real_process_and_stops_at_the_step():
+    """bench startup's clock on a real process printing a line, a progress line after a pause, and
+    more steps: the times from its start, the longest silence, and the process stopped at the step."""
+    from swim_jax.bench_startup import timed_lines
+
+    code = ("import time, sys\nprint('run dir: x', flush=True)\ntime.sleep(0.6)\n"
+            "print('step     5000/10000 | ...', flush=True)\nprint('step    10000/10000 | ...', flush=True)\n"
+            "time.sleep(30)\nprint('never', flush=True)")
+    r = timed_lines([sys.executable, "-c", code], dict(os.environ), until_step=10000, timeout=20)
+    assert r["first_line_s"] < r["first_progress_line_s"] <= r["until_step_s"] < 10
+    assert 0.5 < r["longest_silence_s"] < 10 and r["first_progress_line_s"] - r["first_line_s"] > 0.5
+    assert r["lines"][-1].lstrip().split("  ", 1)[1].startswith("step    10000/")
+    assert timed_lines([sys.executable, "-c", code], dict(os.environ), until_step=20000, timeout=2)["until_step_s"] is None
+
+
+def test_checkpoint_bench_writes_both_kinds_and_restores(tmp_path, capsys):
+    """bench checkpoint on a tiny buffer: both kinds timed per round, disk and restore times in the JSON."""
+    from swim_jax import bench
+
+    assert bench.main(["checkpoint", "--config", "hopper_relu", "--seeds", "2", "--replay-size", "2000",
+                       "--fill", "2000", "--chunk", "500", "--rounds", "2", "--keep", "2", "--out", str(tmp_path)]) == 0
+    res = json.load(open(glob.glob(str(tmp_path / "checkpoint-*.json"))[0]))
+    assert [len(res["seconds"][k]) for k in ("whole", "appended")] == [2, 2]
+    assert res["disk_bytes"]["one_whole_state"] > 0 and res["lanes"] == 2
+    assert "| appended |" in capsys.readouterr().out

@@ -126,7 +126,7 @@ def test_two_processes_equal_one_process_with_the_same_lanes_bit_for_bit(tmp_pat
     assert "run dir" not in outs[1][0] and "process 1 of 2 (flags)" in outs[1][0]
     timing = json.load(open(os.path.join(run_dir, "timing.json")))
     assert (timing["processes"], timing["devices"], timing["chunk_compiles"]) == (2, 2, 1)
-    assert sorted(os.listdir(os.path.join(run_dir, "checkpoints"))) == ["1000", "2000"]
+    assert sorted(os.listdir(os.path.join(run_dir, "checkpoints"))) == ["1000", "2000", "replay"]
     _assert_same_run(run_dir, _reference_dir(ref))
 
 

@@ -99,7 +99,7 @@ def test_outputs_and_progress_lines(vmapped):
     assert vmapped.timing["matmul_dtype"] == ("bfloat16" if bf16 else "float32")
     assert all(("bf16 matmuls" in line) == bf16 for line in vmapped.lines)
     # keep_checkpoints=3 of the 4 chunk checkpoints
-    assert sorted(os.listdir(os.path.join(d, "checkpoints"))) == ["2000", "3000", "4000"]
+    assert sorted(os.listdir(os.path.join(d, "checkpoints"))) == ["2000", "3000", "4000", "replay"]
     # env.backend=auto chose MuJoCo C on this CPU and config.yaml records the choice, so a resumed
     # run keeps its physics wherever it resumes; the resolved config round-trips
     assert tiny().env.backend == "auto"
@@ -331,6 +331,63 @@ def test_transitions_truncation_bootstraps_termination_does_not(vmapped):
     assert np.mean((ok[:, 0] > 0.7) & (np.abs(ok[:, 1]) < 0.2)) == 1.0
 
 
+def test_checkpoints_hold_each_transition_once_and_rebuild_the_buffer_exactly(vmapped):
+    """The orbax checkpoints hold no replay buffer; checkpoints/replay/ holds every transition once,
+    one segment per chunk; the buffer rebuilt from it at step 4000 is the run's final buffer, bit
+    for bit (slots never written: zeros)."""
+    from swim_jax.checkpoint import Checkpointer
+    from swim_jax.replay_store import ReplayStore
+
+    ckpt_dir = os.path.join(vmapped.run_dir, "checkpoints")
+    store = ReplayStore(os.path.join(ckpt_dir, "replay"), 10000)
+    assert [(a, b) for a, b, _ in store.segments()] == [(0, 1000), (1000, 2000), (2000, 3000), (3000, 4000)]
+    data = vmapped.states.buffer.data
+    got = store.rebuild(4000, {k: (a.shape, a.dtype) for k, a in data._asdict().items()})
+    for k, a in data._asdict().items():
+        np.testing.assert_array_equal(got[k], np.asarray(a), err_msg=k)
+    assert np.all(got["obs"][:, 4000:] == 0) and np.any(got["obs"][:, :4000] != 0)
+    ck = Checkpointer(ckpt_dir)
+    whole = Checkpointer.keys_of((vmapped.states, np.zeros((5, 2, 5))))
+    stored = ck.stored_keys(4000)
+    assert stored < whole and len(whole - stored) == len(data)  # exactly the buffer's arrays left out
+    ck.close()
+
+
+def _resumed_at_2000(src: str, dst: str) -> train.RunResult:
+    shutil.copytree(src, dst)
+    for step in ("3000", "4000"):
+        shutil.rmtree(os.path.join(dst, "checkpoints", step))
+    return train.run(tiny(*VMAPPED), dst, resume=True, log=lambda s: None)
+
+
+def test_resume_from_a_checkpoint_equals_the_uninterrupted_run(vmapped, tmp_path):
+    """Resumed from checkpoint 2000 (its buffer rebuilt from the replay segments): the same
+    evaluations, final actor and final buffer as the uninterrupted run, bit for bit."""
+    res = _resumed_at_2000(vmapped.run_dir, str(tmp_path / "resumed"))
+    np.testing.assert_array_equal(res.evaluations, vmapped.evaluations)
+    for k, v in res.final_actor.items():
+        np.testing.assert_array_equal(v, vmapped.final_actor[k], err_msg=k)
+    for a, b in zip(jax.tree.leaves(res.states.buffer), jax.tree.leaves(vmapped.states.buffer)):
+        np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
+    assert res.chunk_fn is vmapped.chunk_fn and res.chunk_fn._cache_size() == 1
+
+
+def test_a_run_checkpointed_with_its_whole_buffer_resumes_the_same(vmapped, tmp_path, monkeypatch):
+    """A run folder written as before the replay store (every checkpoint the whole training state,
+    buffer included, as the earlier code's ``ckpt.save(step, (states, evals.saved()))``; no
+    checkpoints/replay/) still resumes, bit for bit the uninterrupted run."""
+    with monkeypatch.context() as m:
+        m.setattr(train, "_save", lambda ckpt, store, step, eval_freq, states, evals:
+                  ckpt.save(step, (states, evals.saved())))
+        old = train.run(tiny(*VMAPPED), str(tmp_path / "old"), log=lambda s: None)
+    assert not os.path.exists(os.path.join(old.run_dir, "checkpoints", "replay"))
+    np.testing.assert_array_equal(old.evaluations, vmapped.evaluations)
+    res = _resumed_at_2000(old.run_dir, str(tmp_path / "resumed"))
+    np.testing.assert_array_equal(res.evaluations, vmapped.evaluations)
+    for k, v in res.final_actor.items():
+        np.testing.assert_array_equal(v, vmapped.final_actor[k], err_msg=k)
+
+
 def test_single_seed_equals_its_slot_in_the_vmapped_run(vmapped, tmp_path):
     """seeds=1 first_seed=1 (a padded 2-lane program: the same executable, nothing compiled)
     reproduces seed 1 of the 2-seed run bit for bit: evaluations and final actor."""
@@ -506,7 +563,7 @@ def test_divergence_stops_with_message_and_keeps_last_good_checkpoint(tmp_path):
     assert msg.startswith("error: non-finite ") and " in seed " in msg and " at step " in msg, msg
     assert "last good checkpoint: step 1000" in msg, msg
     run_dir = next(l.split(": ", 1)[1] for l in p.stdout.splitlines() if l.startswith("run dir: "))
-    assert sorted(os.listdir(os.path.join(run_dir, "checkpoints"))) == ["1000"]
+    assert sorted(os.listdir(os.path.join(run_dir, "checkpoints"))) == ["1000", "replay"]
     assert not os.path.exists(os.path.join(run_dir, "final_policy.npz"))
     cfg = train.parse_args(["--resume", run_dir])[0]
     prog = programs(cfg)
@@ -514,8 +571,8 @@ def test_divergence_stops_with_message_and_keeps_last_good_checkpoint(tmp_path):
 
     ck = Checkpointer(os.path.join(run_dir, "checkpoints"))
     ids = jnp.arange(2, dtype=jnp.int32)
-    st, ev = ck.restore(1000, (jax.eval_shape(prog.init_fn, jnp.asarray(0, jnp.uint32), ids),
-                               jax.ShapeDtypeStruct((5, 2, 5), jnp.float32)))
+    full = jax.eval_shape(prog.init_fn, jnp.asarray(0, jnp.uint32), ids)  # (the buffer: checkpoints/replay)
+    st, ev = ck.restore(1000, (train._without_replay(full), jax.ShapeDtypeStruct((5, 2, 5), jnp.float32)))
     assert all(np.all(np.isfinite(np.asarray(x))) for x in jax.tree.leaves(st.agent))
     assert np.all(np.isfinite(np.asarray(ev)[:2])) and np.all(np.isnan(np.asarray(ev)[2:]))
 
