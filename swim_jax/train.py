@@ -122,7 +122,8 @@ def run(cfg: Config, run_dir: str, resume: bool = False, log: Callable[[str], No
     t_start = time.time()
     stamped = (lambda m: status(f"[{_fmt_time(time.time() - t_start)}] {m}")) if status else (lambda m: None)
     # every line goes through the heartbeat, which prints one itself after PROGRESS_EVERY_S of silence
-    beat = Heartbeat(stamped, PROGRESS_EVERY_S if status else 0.0)
+    # (its thread looks once a second: speaking after 29 s of silence keeps lines <= 30 s apart)
+    beat = Heartbeat(stamped, PROGRESS_EVERY_S - 1.0 if status else 0.0)
     physics_why = physics_backend(cfg)[1]
     cfg = with_physics_backend(cfg)  # env.backend=auto chosen now; config.yaml records the choice
     try:
@@ -427,10 +428,11 @@ def train_chunk(cfg: Config, chunk_fn, states, c: int, sweep_args, sharding, say
     calls = cfg.eval_freq // per_call
     t0 = time.time()
     metrics = []
+    so_far = ""
     for j in range(calls):
         t = c * cfg.eval_freq + j * per_call
         if beat is not None:
-            beat.doing(f"training steps {t}-{t + per_call} of {cfg.total_steps}")
+            beat.doing(f"training steps {t}-{t + per_call} of {cfg.total_steps}{so_far}")
         if grouped is None:
             states, m = chunk_fn(states, jnp.asarray(t, jnp.int32), *sweep_args)
             states = place(states, sharding)
@@ -441,11 +443,13 @@ def train_chunk(cfg: Config, chunk_fn, states, c: int, sweep_args, sharding, say
             continue
         # wait for the call (cheap: a few ints), so the step and the rate are the real ones
         states.ready() if grouped is not None else jax.block_until_ready(states.bad_step)
+        done = (j + 1) * per_call
+        rate = done / (time.time() - t0)
+        progress = (f"{rate * real_lanes(cfg):.0f} env-steps/s in this chunk, "
+                    f"evaluation in {_fmt_time((cfg.eval_freq - done) / rate)}")
+        so_far = f" ({progress} at step {t + per_call})"  # what a heartbeat line during the next call says
         if time.monotonic() - beat.last_line >= PROGRESS_EVERY_S:
-            done = (j + 1) * per_call
-            rate = done / (time.time() - t0)
-            say(f"step {t + per_call}/{cfg.total_steps}: {rate * real_lanes(cfg):.0f} env-steps/s in this chunk, "
-                f"evaluation in {_fmt_time((cfg.eval_freq - done) / rate)}")
+            say(f"step {t + per_call}/{cfg.total_steps}: {progress}")
     if grouped is not None:
         metrics = [grouped.join_metrics(to_host(m), _merge_pieces) for m in metrics]
     return states, learning_log.combine(to_host(metrics))
