@@ -99,7 +99,7 @@ def _build(target: str) -> None:
     done = subprocess.run(cmd, capture_output=True, text=True)
     if done.returncode != 0:
         os.unlink(tmp)
-        first = next((l for l in done.stderr.splitlines() if "error" in l), done.stderr.strip()[:200])
+        first = next((line for line in done.stderr.splitlines() if "error" in line), done.stderr.strip()[:200])
         raise RuntimeError(f"{os.path.basename(compiler)} failed: {first}")
     os.replace(tmp, target)
 

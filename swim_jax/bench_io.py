@@ -26,7 +26,7 @@ def cpu_model() -> str:
     name, info = "unknown", hardware.cpuinfo()
     try:
         out = subprocess.run(["lscpu"], capture_output=True, text=True).stdout
-        name = next((l.split(":", 1)[1].strip() for l in out.splitlines() if l.startswith("Model name:")),
+        name = next((line.split(":", 1)[1].strip() for line in out.splitlines() if line.startswith("Model name:")),
                     info.get("model name", name))
     except OSError:
         name = info.get("model name", name)

@@ -71,7 +71,7 @@ def train_rate(args: list[str], out_dir: str, placement: str, cores: list[int]) 
     out, err = p.communicate()
     if p.returncode != 0:
         raise RuntimeError(f"{placement} run failed (exit {p.returncode}): {err.strip().splitlines()[-1:]}")
-    run_dir = next(l.split(": ", 1)[1] for l in out.splitlines() if l.startswith("run dir: "))
+    run_dir = next(line.split(": ", 1)[1] for line in out.splitlines() if line.startswith("run dir: "))
     with open(os.path.join(run_dir, "timing.json")) as f:
         return float(json.load(f)["env_steps_per_s"])
 

@@ -61,10 +61,10 @@ def timed_lines(cmd: list[str], env: dict, until_step: int, timeout: float) -> d
         p.wait()
     times = [t for t, _ in lines]
     gaps = [b - a for a, b in zip([0.0] + times, times)]
-    first_progress = next((t for t, l in lines if _STEP.match(l)), None)
+    first_progress = next((t for t, line in lines if _STEP.match(line)), None)
     return {"first_line_s": times[0] if times else None, "first_progress_line_s": first_progress,
             "until_step_s": times[-1] if reached else None, "longest_silence_s": max(gaps) if gaps else None,
-            "lines": [f"{t:7.1f}  {l}" for t, l in lines]}
+            "lines": [f"{t:7.1f}  {line}" for t, line in lines]}
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -171,7 +171,7 @@ def test_full_report(finished, tmp_path):
     text = open(os.path.join(out, "REPORT.md")).read()
     assert "## The study" in text and "Partial study" not in text and "pools the **3 finished**" in text
     assert "Table II" in text and os.path.isfile(os.path.join(out, "figure4.png"))
-    assert f"--cell hopper_swish" in text
+    assert "--cell hopper_swish" in text
 
 
 def test_provenance_of_a_cell(finished):
