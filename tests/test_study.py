@@ -9,6 +9,7 @@ resume 1 from its checkpoint and start 2.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import subprocess
@@ -242,3 +243,29 @@ def test_a_changed_study_is_refused(interrupted, tmp_path, capsys):
     err = capsys.readouterr().err
     assert "cell hopper_swim:" in err and "was started with total_steps=2000, the study now gives total_steps=3000" in err
     assert sorted(os.listdir(s.out_dir)) == before
+
+
+def test_a_study_on_the_auto_backend_keeps_each_cells_recorded_physics(interrupted, tmp_path, capsys):
+    """A study that leaves env.backend at its default (auto) meets the tiny study's folders, whose
+    config.yaml records env.backend=mujoco: not a changed study; a resumed cell keeps MuJoCo C;
+    a folder recorded with MJX keeps MJX; another recorded key still refuses."""
+    path, s = interrupted
+    auto = yaml.safe_load(open(path))
+    del auto["overrides"]["env.backend"]
+    other = study.load(write_study(str(tmp_path), auto, "auto.yaml"))
+    assert all(c.cfg.env.backend == "auto" for c in other.cells)
+    assert study.main([os.path.join(str(tmp_path), "auto.yaml"), "--status"]) == 0
+    assert study._recorded_backend(other.cells[1]).env.backend == "mujoco"
+    folder = tmp_path / "mjx_cell"
+    folder.mkdir()
+    cell = other.cells[0]
+    with open(os.path.join(cell.run_dir, "config.yaml")) as f:
+        text = f.read()
+    assert "backend: mujoco" in text and "\nseeds: 2\n" in text
+    moved = dataclasses.replace(cell, run_dir=str(folder))
+    (folder / "config.yaml").write_text(text.replace("backend: mujoco", "backend: mjx"))
+    study._check_existing(moved)  # auto accepts what auto chose where the cell started
+    assert study._recorded_backend(moved).env.backend == "mjx"
+    (folder / "config.yaml").write_text(text.replace("backend: mujoco", "backend: mjx").replace("\nseeds: 2\n", "\nseeds: 3\n"))
+    with pytest.raises(study.StudyError, match="was started with seeds=3"):
+        study._check_existing(moved)
