@@ -1,4 +1,4 @@
-"""A whole study, resumable: ``python -m swim_jax.study STUDY.yaml [--parallel N | --status | --report DIR | --slurm]``.
+"""A whole study, resumable: ``python -m swim_jax.study STUDY.yaml [--parallel N | --status | --report DIR | --curate DIR | --slurm]``.
 
 A study file names a grid of runs ("cells"): configs (``envs`` × ``activations``, i.e.
 ``configs/<env>_<activation>.yaml``, or an explicit ``configs`` list), optional further ``grid``
@@ -569,6 +569,32 @@ def write_report(study: Study, out: str, bench: list[str], force: bool, log: Cal
     return 0
 
 
+CURATE_SKIPS = ("checkpoints", LOCK_FILE)  # what a curated cell leaves out (resumable state, the lock)
+
+
+def curate(study: Study, out: str, bench: list[str], log: Callable[[str], None] = print) -> int:
+    """``--curate DIR``: copy every finished cell not yet in ``DIR`` to ``DIR/<cell>/`` without its
+    checkpoints (evaluations, metrics, final policies, config, timing, provenance, train.log stay),
+    then write the report over all cells in ``DIR`` to ``DIR/report/`` (rewritten each time: it is
+    this command's own output). Cells already in ``DIR`` are left as they are."""
+    import shutil
+
+    done = [s.cell for s in (cell_state(c) for c in study.cells) if s.state == "done"]
+    if not done:
+        raise StudyError(f"no finished cell in {study.out_dir} yet; --status shows where the cells stand")
+    os.makedirs(out, exist_ok=True)
+    for c in done:
+        dst = os.path.join(out, c.name)
+        if os.path.exists(dst):
+            log(f"{c.name}: already in {out}; left as it is")
+            continue
+        shutil.copytree(c.run_dir, dst + ".partial", ignore=shutil.ignore_patterns(*CURATE_SKIPS))
+        os.replace(dst + ".partial", dst)
+        log(f"{c.name}: copied to {dst} (without {', '.join(CURATE_SKIPS)})")
+    curated = load(study.path, out)
+    return write_report(curated, os.path.join(out, "report"), bench, force=True, log=log)
+
+
 def slurm_script(study: Study, cpus: int, hours: int, python: str = sys.executable) -> str:
     """A SLURM job-array script, one task per cell, each task the cell's resumable command."""
     repo = provenance.SOURCE_DIR
@@ -603,6 +629,7 @@ def _parser():
     what = p.add_mutually_exclusive_group()
     what.add_argument("--status", action="store_true", help="print where every cell stands and the ETA")
     what.add_argument("--report", metavar="DIR", help="write the report over the finished cells to DIR")
+    what.add_argument("--curate", metavar="DIR", help="copy finished cells (no checkpoints) to DIR and report them in DIR/report")
     what.add_argument("--slurm", action="store_true", help="print a SLURM job-array script (one task per cell)")
     what.add_argument("--cell", metavar="NAME|INDEX", help="train (resume, skip) this one cell in this process")
     p.add_argument("--parallel", type=int, default=None,
@@ -623,8 +650,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if args.parallel is not None and not 1 <= args.parallel <= cores:
             raise StudyError(f"--parallel {args.parallel}: must be between 1 and the {cores} cores this process may use")
-        if (args.bench or args.force) and not args.report:
-            raise StudyError("--bench and --force go with --report DIR")
+        if args.force and not args.report or args.bench and not (args.report or args.curate):
+            raise StudyError("--bench goes with --report DIR or --curate DIR, --force with --report DIR")
         if args.cpus_per_task < 1 or args.hours < 1:
             raise StudyError("--cpus-per-task and --hours must be >= 1")
         study = load(args.study, args.out_dir)
@@ -637,6 +664,8 @@ def main(argv: list[str] | None = None) -> int:
             return 0
         if args.report:
             return write_report(study, args.report, args.bench, args.force)
+        if args.curate:
+            return curate(study, args.curate, args.bench)
         if args.cell is not None:
             cell = study.cell(args.cell)
             return run_cell(cell, log=lambda s: print(s, flush=True))

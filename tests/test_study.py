@@ -222,8 +222,9 @@ def test_bad_options(tmp_path, capsys):
                           ([path, "--parallel", "0"], "--parallel 0: must be between 1 and"),
                           ([path, "--cell", "hopper_relu"], "no such cell; valid: hopper_swim"),
                           ([path, "--cell", "5"], "the study has 1 cells (0..0)"),
-                          ([path, "--bench", "x.json"], "go with --report"),
-                          ([path, "--report", str(tmp_path / "r")], "no finished cell")]:
+                          ([path, "--bench", "x.json"], "--bench goes with --report DIR or --curate DIR"),
+                          ([path, "--report", str(tmp_path / "r")], "no finished cell"),
+                          ([path, "--curate", str(tmp_path / "r")], "no finished cell")]:
         assert study.main(argv) == 2, argv
         err = capsys.readouterr().err
         assert message in err and err.count("\n") == 1, (argv, err)
@@ -269,3 +270,28 @@ def test_a_study_on_the_auto_backend_keeps_each_cells_recorded_physics(interrupt
     (folder / "config.yaml").write_text(text.replace("backend: mujoco", "backend: mjx").replace("\nseeds: 2\n", "\nseeds: 3\n"))
     with pytest.raises(study.StudyError, match="was started with seeds=3"):
         study._check_existing(moved)
+
+
+def test_curate_copies_finished_cells_without_checkpoints_and_reports_them(interrupted, tmp_path, capsys):
+    """--curate DIR: every finished cell copied once (no checkpoints, no lock; evaluations, metrics,
+    final policies, config, timing, provenance kept), the report over the copies in DIR/report;
+    run again, the copies are left as they are and the report is rewritten."""
+    path, s = interrupted
+    done = [c for c in s.cells if study.cell_state(c).state == "done"]
+    assert done  # cell 0 at least
+    out = tmp_path / "curated"
+    assert study.main([path, "--curate", str(out)]) == 0
+    for c in done:
+        names = set(os.listdir(out / c.name))
+        assert {"config.yaml", "evaluations.csv", "metrics.csv", "final_policy.npz", "timing.json",
+                "provenance.json"} <= names  # (and train.log for cells the study command ran)
+        assert "checkpoints" not in names and study.LOCK_FILE not in names
+        np.testing.assert_array_equal(np.load(out / c.name / "evaluations.npy"),
+                                      np.load(os.path.join(c.run_dir, "evaluations.npy")))
+    report_md = (out / "report" / "REPORT.md").read_text()
+    assert all(c.name in report_md for c in done)
+    stamp = os.path.getmtime(out / done[0].name / "evaluations.csv")
+    capsys.readouterr()
+    assert study.main([path, "--curate", str(out)]) == 0
+    assert f"{done[0].name}: already in" in capsys.readouterr().out
+    assert os.path.getmtime(out / done[0].name / "evaluations.csv") == stamp
