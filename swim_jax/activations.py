@@ -22,8 +22,9 @@ Rivals share the calling convention ``fn(x, **params)``: ``swish(x, beta=1)``, `
 learnable per-layer weights.
 
 ``ACTIVATIONS`` is the one description of every activation that the rest of the code derives
-from: its function, its parameters (name, default, valid range, legend symbol), its display name,
-its reserved figure colour. From it come the config fields ``agent.activation.<param>``
+from: its function, its NumPy twin (``swim_jax.activations_np``, same name and parameters: trained
+policies run without JAX, ``swim_jax.policy``), its parameters (name, default, valid range, legend
+symbol), its display name, its reserved figure colour. From it come the config fields ``agent.activation.<param>``
 (``agents.td3.ActivationConfig``), config validation, the sweepable and learnable parameters, the
 report's run labels (:class:`ActivationSetting`: ``swim(k=0.75)+learnable``), their display names
 (``Swim(k=0.75)``), the figures' colours and legends. Adding an activation is one entry there.
@@ -31,6 +32,7 @@ report's run labels (:class:`ActivationSetting`: ``swim(k=0.75)+learnable``), th
 
 from __future__ import annotations
 
+import inspect
 import math
 from dataclasses import dataclass, replace
 from functools import partial
@@ -41,6 +43,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 from jax import lax
+
+from swim_jax import activations_np
 
 Array = jax.Array
 
@@ -329,13 +333,16 @@ class ActivationSpec:
     a keyword of ``fn``); ``display``, its name in tables and legends (the registry name when
     empty); ``color``, the hex colour reserved for its plain label in the report's figures (None:
     it gets a generated colour like any other label); ``paper``: one of the paper's activations
-    (Figures 1 and 2, and listed first, in registry order, in the report)."""
+    (Figures 1 and 2, and listed first, in registry order, in the report); ``numpy``: the same
+    function in NumPy, ``swim_jax.activations_np.<registry name>`` with the same parameters and
+    defaults (required in the registry: ``swim_jax.policy`` runs trained policies without JAX)."""
 
     fn: Callable[..., Array]
     params: tuple[ActivationParam, ...] = ()
     display: str = ""
     color: str | None = None
     paper: bool = False
+    numpy: Callable[..., np.ndarray] | None = None
 
     @property
     def defaults(self) -> dict[str, float]:
@@ -344,20 +351,23 @@ class ActivationSpec:
 
 
 ACTIVATIONS: dict[str, ActivationSpec] = {
-    "swim": ActivationSpec(swim, (ActivationParam("k", 0.5),), "Swim", "#d62728", paper=True),  # tab:red
-    "swish": ActivationSpec(swish, (ActivationParam("beta", 1.0, symbol="β"),), "Swish", "#1f77b4", paper=True),  # tab:blue
-    "relu": ActivationSpec(relu, (), "ReLU", "#2ca02c", paper=True),  # tab:green
-    "hard_swish": ActivationSpec(hard_swish),
-    "mish": ActivationSpec(mish),
-    "elu": ActivationSpec(elu, (ActivationParam("alpha", 1.0, symbol="α"),), "ELU"),
+    "swim": ActivationSpec(swim, (ActivationParam("k", 0.5),), "Swim", "#d62728", paper=True,  # tab:red
+                           numpy=activations_np.swim),
+    "swish": ActivationSpec(swish, (ActivationParam("beta", 1.0, symbol="β"),), "Swish", "#1f77b4", paper=True,  # tab:blue
+                            numpy=activations_np.swish),
+    "relu": ActivationSpec(relu, (), "ReLU", "#2ca02c", paper=True, numpy=activations_np.relu),  # tab:green
+    "hard_swish": ActivationSpec(hard_swish, numpy=activations_np.hard_swish),
+    "mish": ActivationSpec(mish, numpy=activations_np.mish),
+    "elu": ActivationSpec(elu, (ActivationParam("alpha", 1.0, symbol="α"),), "ELU", numpy=activations_np.elu),
 }
 
 
 def _check_registry(registry: Mapping[str, ActivationSpec]) -> None:
     """Each parameter name is ONE config field (``agent.activation.<name>``) shared by every
     activation that takes it, so those must agree on its default, and it cannot be another member
-    of the activation config (``name``, ``learnable``, ``params``); each default must be valid.
-    Raises ValueError naming the offending entry."""
+    of the activation config (``name``, ``learnable``, ``params``); each default must be valid; its
+    ``numpy`` twin must be ``swim_jax.activations_np.<name>`` (code without JAX finds it by name)
+    taking the same parameters with the same defaults. Raises ValueError naming the offending entry."""
     defaults: dict[str, float] = {}
     for act, spec in registry.items():
         for p in spec.params:
@@ -368,6 +378,13 @@ def _check_registry(registry: Mapping[str, ActivationSpec]) -> None:
                                  f"activation's {p.name} to {defaults[p.name]} (one config field, one default)")
             if p.problem(p.default):
                 raise ValueError(f"activation {act!r}: default {p.name}={p.default} is invalid; {p.problem(p.default)}")
+        if spec.numpy is None or getattr(activations_np, act, None) is not spec.numpy:
+            raise ValueError(f"activation {act!r}: numpy= must be its NumPy implementation "
+                             f"swim_jax.activations_np.{act} (policies run without JAX look it up by name)")
+        keywords = {n: q.default for n, q in list(inspect.signature(spec.numpy).parameters.items())[1:]}
+        if keywords != spec.defaults:
+            raise ValueError(f"activation {act!r}: its NumPy implementation takes {keywords or 'no parameters'}, "
+                             f"the registry entry {spec.defaults or 'no parameters'}")
 
 
 _check_registry(ACTIVATIONS)

@@ -196,6 +196,51 @@ def student_t_two_sided_p(t: float, df: float) -> float:
     return min(1.0, betainc_regularized(df / 2.0, 0.5, df / (df + t * t)))
 
 
+def student_t_quantile(q: float, df: float) -> float:
+    """The ``q``-quantile (``0.5 <= q < 1``) of Student's t with ``df > 0`` degrees of freedom:
+    the ``t >= 0`` with ``P(T <= t) = q``, by bisection on :func:`student_t_two_sided_p`
+    (``P(|T| >= t) = 2(1 − q)``) to ~1e-12. ``student_t_quantile(0.975, 9)`` = 2.2622."""
+    if not 0.5 <= q < 1:
+        raise ValueError(f"q must be in [0.5, 1), got {q}")
+    target = 2.0 * (1.0 - q)
+    lo, hi = 0.0, 1.0
+    while student_t_two_sided_p(hi, df) > target:
+        lo, hi = hi, 2.0 * hi
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if student_t_two_sided_p(mid, df) > target:
+            lo = mid
+        else:
+            hi = mid
+        if hi - lo <= 1e-12 * max(1.0, hi):
+            break
+    return 0.5 * (lo + hi)
+
+
+@dataclass(frozen=True)
+class MeanCI:
+    """A sample's mean, sample std (``ddof=1``), size and t-based confidence interval of the mean."""
+
+    mean: float
+    sd: float
+    n: int
+    low: float
+    high: float
+
+    def __contains__(self, value: float) -> bool:
+        return self.low <= value <= self.high
+
+
+def mean_ci(x, level: float = 0.95) -> MeanCI:
+    """mean ± t_{(1+level)/2, n−1} · sd/√n of ``x`` (at least 2 values, else ``ValueError``)."""
+    x = np.asarray(x, dtype=np.float64).ravel()
+    if x.size < 2:
+        raise ValueError("a confidence interval needs at least 2 values")
+    m, sd = float(x.mean()), float(x.std(ddof=1))
+    half = student_t_quantile(0.5 + level / 2, x.size - 1) * sd / math.sqrt(x.size)
+    return MeanCI(m, sd, int(x.size), m - half, m + half)
+
+
 def betainc_regularized(a: float, b: float, x: float) -> float:
     """Regularised incomplete beta ``I_x(a, b)`` for ``a, b > 0``, ``0 ≤ x ≤ 1``.
 

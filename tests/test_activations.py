@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from jax.test_util import check_grads
 
+from swim_jax import activations_np
 from swim_jax.activations import (
     ACTIVATIONS,
     SWIM_VARIANTS,
@@ -496,7 +497,7 @@ def test_registry_derives_parameters_labels_and_legends():
 
 
 def test_registry_refuses_one_parameter_name_with_two_defaults():
-    ok = {"a": ActivationSpec(elu, (ActivationParam("alpha", 1.0),))}
+    ok = {"elu": ActivationSpec(elu, (ActivationParam("alpha", 1.0),), numpy=activations_np.elu)}
     _check_registry(ok)
     with pytest.raises(ValueError, match="one config field, one default"):
         _check_registry({**ok, "b": ActivationSpec(elu, (ActivationParam("alpha", 0.01),))})
