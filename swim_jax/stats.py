@@ -241,6 +241,23 @@ def mean_ci(x, level: float = 0.95) -> MeanCI:
     return MeanCI(m, sd, int(x.size), m - half, m + half)
 
 
+def welch_diff_ci(x, y, level: float = 0.95) -> tuple[float, float]:
+    """Welch's confidence interval of mean(x) − mean(y): the difference ± t_{(1+level)/2, df} times
+    its standard error, df the Welch–Satterthwaite degrees of freedom (:func:`welch_t_test`); at
+    least 2 values per sample. Both variances zero: the difference itself, twice."""
+    x = np.asarray(x, dtype=np.float64).ravel()
+    y = np.asarray(y, dtype=np.float64).ravel()
+    if x.size < 2 or y.size < 2:
+        raise ValueError("a difference CI needs at least 2 values per sample")
+    ax, ay = x.var(ddof=1) / x.size, y.var(ddof=1) / y.size
+    d = float(x.mean() - y.mean())
+    if ax + ay == 0:
+        return d, d
+    df = (ax + ay) ** 2 / (ax ** 2 / (x.size - 1) + ay ** 2 / (y.size - 1))
+    half = student_t_quantile(0.5 + level / 2, df) * math.sqrt(ax + ay)
+    return d - half, d + half
+
+
 def betainc_regularized(a: float, b: float, x: float) -> float:
     """Regularised incomplete beta ``I_x(a, b)`` for ``a, b > 0``, ``0 ≤ x ≤ 1``.
 

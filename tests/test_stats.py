@@ -163,3 +163,19 @@ def test_verdict_wording_when_the_means_are_equal():
     assert "equal than" not in v
     assert "Swim's mean per-seed auc score equals Swish's (95% bootstrap CI" in v
     assert v.startswith("Evidence too weak")
+
+
+def test_t_quantile_mean_ci_and_welch_difference_ci_match_scipy():
+    import scipy.stats
+
+    for q, df in [(0.975, 1), (0.975, 2.5), (0.975, 9), (0.975, 99), (0.995, 30), (0.75, 4), (0.5, 7)]:
+        assert stats.student_t_quantile(q, df) == pytest.approx(scipy.stats.t.ppf(q, df), rel=1e-9, abs=1e-9)
+    rng = np.random.default_rng(0)
+    x, y = rng.normal(5, 2, 12), rng.normal(4, 7, 40)
+    ci = stats.mean_ci(x)
+    assert (ci.low, ci.high) == pytest.approx(scipy.stats.t.interval(0.95, 11, x.mean(), scipy.stats.sem(x)), rel=1e-10)
+    assert x.mean() in ci and ci.high + 1 not in ci
+    ref = scipy.stats.ttest_ind(x, y, equal_var=False).confidence_interval(0.95)
+    assert stats.welch_diff_ci(x, y) == pytest.approx((ref.low, ref.high), rel=1e-9)
+    with pytest.raises(ValueError):
+        stats.mean_ci([1.0])
