@@ -9,6 +9,7 @@ user (or a log watcher) never waits longer than that for a sign of life.
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 from typing import Callable
@@ -16,7 +17,7 @@ from typing import Callable
 
 def fmt_duration(sec: float) -> str:
     """``h:mm:ss`` of ``sec`` seconds (rounded), or ``?`` when it is not finite."""
-    if sec != sec or sec in (float("inf"), float("-inf")):
+    if not math.isfinite(sec):
         return "?"
     sec = int(round(sec))
     return f"{sec // 3600}:{sec % 3600 // 60:02d}:{sec % 60:02d}"

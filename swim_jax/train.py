@@ -45,7 +45,6 @@ Exit status: 0 done; 2 bad command line/config (one line on stderr, nothing writ
 from __future__ import annotations
 
 import contextlib
-import math
 import os
 import sys
 import time
@@ -63,7 +62,7 @@ from swim_jax import distributed, learning_log, local_processes, outputs, proven
 from swim_jax.checkpoint import Checkpointer, latest_complete_step
 from swim_jax.config import Config, ConfigError
 from swim_jax.distributed import to_host
-from swim_jax.heartbeat import Heartbeat
+from swim_jax.heartbeat import Heartbeat, fmt_duration
 from swim_jax.replay_store import DIRNAME as REPLAY_DIR
 from swim_jax.replay_store import ReplayStore
 from swim_jax.lane_groups import GroupedChunks
@@ -481,11 +480,7 @@ def _progress_line(cfg: Config, points, step: int, ev: np.ndarray, dt: float, fi
     return line + f" | elapsed {_fmt_time(elapsed)} | ETA {eta if isinstance(eta, ETA) else _fmt_time(eta)}"
 
 
-def _fmt_time(sec: float) -> str:
-    if not math.isfinite(sec):
-        return "?"
-    sec = int(round(sec))
-    return f"{sec // 3600}:{sec % 3600 // 60:02d}:{sec % 60:02d}"
+_fmt_time = fmt_duration  # h:mm:ss, "?" when not finite (swim_jax/heartbeat.py)
 
 
 # ------------------------------------------------------------------------------------------------
