@@ -1,0 +1,17 @@
+"""swim-jax: Swim vs Swish vs ReLU for TD3 locomotion, one JAX program per run.
+
+The commands are the modules at this level (``python -m swim_jax.train``, ``.sweep``, ``.study``,
+``.report``, ``.evaluate``, ``.render``, ``.plots``, ``.bench``); each is a door into the room that
+holds its code. The rooms, each importing only rooms listed before it (docs/ARCHITECTURE.md):
+
+- ``io``         files, logs, command-line parsing, the CPU: imports nothing else of the project
+- ``policy``     trained policies in NumPy, without JAX (and the activations' NumPy twins)
+- ``activations`` Swim and its rivals in JAX, one registry (activations.py)
+- ``envs``       the locomotion tasks (``envs/tasks``) on MJX or MuJoCo C physics (``envs/physics``)
+- ``agents``     TD3: networks, replay buffer, updates, the jitted training loop
+- ``config``     the run configuration (config.py)
+- ``placement``  where lanes go: lane groups, devices, processes
+- ``analysis``   reading finished runs: report, statistics, evaluation in Gymnasium
+- ``run``        one run of a config (program, loop, run folder), rendering, a whole study
+- ``bench``      the benchmarks
+"""

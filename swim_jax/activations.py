@@ -22,10 +22,10 @@ Rivals share the calling convention ``fn(x, **params)``: ``swish(x, beta=1)``, `
 learnable per-layer weights.
 
 ``ACTIVATIONS`` is the one description of every activation that the rest of the code derives
-from: its function, its NumPy twin (``swim_jax.activations_np``, same name and parameters: trained
-policies run without JAX, ``swim_jax.policy``), its parameters (name, default, valid range, legend
+from: its function, its NumPy twin (``swim_jax.policy.activations``, same name and parameters: trained
+policies run without JAX, ``swim_jax.policy.policy``), its parameters (name, default, valid range, legend
 symbol), its display name, its reserved figure colour. From it come the config fields ``agent.activation.<param>``
-(``agents.td3.ActivationConfig``), config validation, the sweepable and learnable parameters, the
+(``swim_jax.agents.td3.ActivationConfig``), config validation, the sweepable and learnable parameters, the
 report's run labels (:class:`ActivationSetting`: ``swim(k=0.75)+learnable``), their display names
 (``Swim(k=0.75)``), the figures' colours and legends. Adding an activation is one entry there.
 """
@@ -44,7 +44,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax import lax
 
-from swim_jax import activations_np
+from swim_jax.policy import activations as activations_np
 
 Array = jax.Array
 
@@ -334,8 +334,8 @@ class ActivationSpec:
     empty); ``color``, the hex colour reserved for its plain label in the report's figures (None:
     it gets a generated colour like any other label); ``paper``: one of the paper's activations
     (Figures 1 and 2, and listed first, in registry order, in the report); ``numpy``: the same
-    function in NumPy, ``swim_jax.activations_np.<registry name>`` with the same parameters and
-    defaults (required in the registry: ``swim_jax.policy`` runs trained policies without JAX)."""
+    function in NumPy, ``swim_jax.policy.activations.<registry name>`` with the same parameters and
+    defaults (required in the registry: ``swim_jax.policy.policy`` runs trained policies without JAX)."""
 
     fn: Callable[..., Array]
     params: tuple[ActivationParam, ...] = ()
@@ -366,7 +366,7 @@ def _check_registry(registry: Mapping[str, ActivationSpec]) -> None:
     """Each parameter name is ONE config field (``agent.activation.<name>``) shared by every
     activation that takes it, so those must agree on its default, and it cannot be another member
     of the activation config (``name``, ``learnable``, ``params``); each default must be valid; its
-    ``numpy`` twin must be ``swim_jax.activations_np.<name>`` (code without JAX finds it by name)
+    ``numpy`` twin must be ``swim_jax.policy.activations.<name>`` (code without JAX finds it by name)
     taking the same parameters with the same defaults. Raises ValueError naming the offending entry."""
     defaults: dict[str, float] = {}
     for act, spec in registry.items():
@@ -380,7 +380,7 @@ def _check_registry(registry: Mapping[str, ActivationSpec]) -> None:
                 raise ValueError(f"activation {act!r}: default {p.name}={p.default} is invalid; {p.problem(p.default)}")
         if spec.numpy is None or getattr(activations_np, act, None) is not spec.numpy:
             raise ValueError(f"activation {act!r}: numpy= must be its NumPy implementation "
-                             f"swim_jax.activations_np.{act} (policies run without JAX look it up by name)")
+                             f"swim_jax.policy.activations.{act} (policies run without JAX look it up by name)")
         keywords = {n: q.default for n, q in list(inspect.signature(spec.numpy).parameters.items())[1:]}
         if keywords != spec.defaults:
             raise ValueError(f"activation {act!r}: its NumPy implementation takes {keywords or 'no parameters'}, "

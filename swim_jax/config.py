@@ -20,10 +20,10 @@ from typing import Any, Mapping
 
 import yaml
 
-import envs
-from agents.td3 import TD3Config, replace_fields, sweepable_fields
+from swim_jax import envs
+from swim_jax.agents.td3 import TD3Config, replace_fields, sweepable_fields
 from swim_jax.activations import ACTIVATIONS, learnable_activations, validate_params
-from swim_jax import tensorboard_log
+from swim_jax.io import tensorboard_log
 
 CONFIG_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "configs")
 PRECISIONS = ("float32", "float64")
@@ -42,9 +42,9 @@ class ConfigError(ValueError):
 class EnvConfig:
     """Environment id (``envs.ENV_IDS``), its time limit and physics backend (``auto``, the
     default: ``mujoco`` when JAX runs on a CPU, ``mjx`` on a GPU/TPU, resolved when a run starts
-    and recorded so in its config.yaml, swim_jax/programs.py ``physics_backend``; ``mjx``: MJX in
+    and recorded so in its config.yaml, swim_jax/run/programs.py ``physics_backend``; ``mjx``: MJX in
     JAX, batched on any device; ``mujoco``: MuJoCo C on the host from inside the jitted program,
-    bit for bit Gymnasium's physics and the faster one on a CPU, see envs/native.py). With
+    bit for bit Gymnasium's physics and the faster one on a CPU, see swim_jax/envs/physics/native.py). With
     ``mujoco``, ``native_call`` chooses how the program reaches MuJoCo C: ``auto`` (an XLA FFI call
     into C++ on a CPU when it builds, else a Python callback), ``ffi`` or ``callback``."""
 
@@ -73,7 +73,7 @@ class Config:
     keep_checkpoints: int = 3
     name: str = ""  # run name (defaults to the config file name)
     # seeds=1 runs a duplicate second lane so the seed is bit-identical to the same seed in a
-    # multi-seed run (see swim_jax.programs.num_lanes); false: half the work, float-rounding drift
+    # multi-seed run (see swim_jax.run.programs.num_lanes); false: half the work, float-rounding drift
     pad_single_seed: bool = True
     # float32 matmul precision (jax.default_matmul_precision): "highest" = true float32 everywhere;
     # "default" lets NVIDIA GPUs use TF32 (~1e-3 relative; faster for big matmuls, not comparable with CPU)
@@ -81,20 +81,20 @@ class Config:
     # network matmuls: "bfloat16" = inputs, weights, biases and the products' derivatives rounded to
     # bfloat16, sums in float32 (parameters, Adam state, activations stay in precision); "full" =
     # in the run's precision; "auto" = bfloat16 for float32 runs on a CPU with bfloat16 dot
-    # instructions (AVX-512 BF16 / AMX; swim_jax/hardware.py), else full (programs.matmul_dtype)
+    # instructions (AVX-512 BF16 / AMX; swim_jax/io/hardware.py), else full (programs.matmul_dtype)
     matmul_dtype: str = "auto"
     # lanes (seeds × sweep points) split over devices when several exist and lanes divide evenly
     shard_lanes: bool = True
     # > 0: ask XLA for this many host CPU devices (sets XLA_FLAGS before JAX starts; CPU only)
     host_devices: int = 0
     # true: on a CPU, in one process, the lanes are stepped as one group per core, each group its own
-    # program on its own host CPU device, all running at once (swim_jax/lane_groups.py); swim_jax.train
+    # program on its own host CPU device, all running at once (swim_jax/placement/lane_groups.py); swim_jax.run.train
     # then asks for one host device per core (at most one per seed) unless host_devices is set.
     # Measured 0.80x one program's step time for 5 lanes on 2 cores (docs/BENCHMARKS.md section 12).
     # Not where it cannot apply (GPU, several processes, one seed: one program). false: one program
     lane_groups: bool = True
     # > 1: run as this many jax.distributed processes on this machine, each pinned to its share of
-    # the cores (swim_jax/local_processes.py): each steps its own lanes with single-threaded products,
+    # the cores (swim_jax/placement/local_processes.py): each steps its own lanes with single-threaded products,
     # measured 1.17-1.20x one process on 2 cores (docs/BENCHMARKS.md section 5). CPU; lanes must divide
     local_processes: int = 0
     # env steps per call of the compiled program; a progress line (env-steps/s, ETA) is printed
@@ -108,7 +108,7 @@ class Config:
     # (docs/BENCHMARKS.md section 4). No effect on GPUs.
     xla_cpu_ynn_fusions: bool = False
     # also write metrics.csv's scalars and the evaluation returns as TensorBoard event files, one
-    # run per seed: <run>/tensorboard/seed_<i>/ (swim_jax/tensorboard_log.py); needs tensorboardX,
+    # run per seed: <run>/tensorboard/seed_<i>/ (swim_jax/io/tensorboard_log.py); needs tensorboardX,
     # the optional extra: pip install -c requirements.lock -e '.[tensorboard]'
     tensorboard: bool = False
     # hyperparameter sweep: {"agent.activation.k": (0.25, 0.5, 1.0), ...}; the grid (cartesian

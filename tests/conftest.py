@@ -29,7 +29,7 @@ def restore_x64():
 
 
 # --------------------------------------------------------------------------- trained policies
-# (tests/test_policy.py, tests/test_evaluate.py: swim_jax.policy and swim_jax.evaluate)
+# (tests/test_policy.py, tests/test_evaluate.py: swim_jax.policy.policy and swim_jax.analysis.evaluate)
 
 POLICY_TINY = ["total_steps=2000", "eval_freq=1000", "learning_starts=500", "eval_episodes=3", "replay_size=4000",
                "agent.hidden=[16,16]", "agent.batch_size=32", "env.backend=mujoco", "lane_groups=false"]
@@ -44,7 +44,7 @@ def policy_runs(tmp_path_factory):
     """``{"f64": RunResult, "sweep": RunResult}``: two tiny finished runs (MuJoCo C physics, 2000
     steps, checkpoints at 1000 and 2000), trained once per session; each result has ``.cfg``."""
     from swim_jax import config as cfgmod
-    from swim_jax import train
+    from swim_jax.run import train
 
     prev = jax.config.jax_enable_x64
     out = {}

@@ -1,11 +1,11 @@
 """Cases shared by the env tests: which env ids run by default, and teacher forcing against
-Gymnasium's recorded trajectories (envs.gym_reference)."""
+Gymnasium's recorded trajectories (swim_jax.envs.gym_reference)."""
 
 import numpy as np
 import pytest
 
-import envs
-from envs import gym_reference as gr
+from swim_jax import envs
+from swim_jax.envs import gym_reference as gr
 
 N_STEPS = 1000  # steps of each recorded Gymnasium trajectory (random, then sine controller)
 FAST = ("Hopper-v5", "HalfCheetah-v5")

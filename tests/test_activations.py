@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from jax.test_util import check_grads
 
-from swim_jax import activations_np
+from swim_jax.policy import activations as activations_np
 from swim_jax.activations import (
     ACTIVATIONS,
     SWIM_VARIANTS,

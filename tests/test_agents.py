@@ -1,4 +1,4 @@
-"""agents/: networks, replay buffer and one TD3 update against independent float64 references.
+"""swim_jax/agents/: networks, replay buffer and one TD3 update against independent float64 references.
 
 The reference re-implements the networks, TD target, losses, Adam and Polyak by hand in float64
 (numpy for the forward math and Adam; jax.grad only differentiates the hand-written jnp forward).
@@ -11,9 +11,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from agents import replay
-from agents.networks import Actor, NetworkOptions, TwinCritic
-from agents.td3 import TD3, ActivationConfig, TD3Config
+from swim_jax.agents import replay
+from swim_jax.agents.networks import Actor, NetworkOptions, TwinCritic
+from swim_jax.agents.td3 import TD3, ActivationConfig, TD3Config
 
 OBS, ACT, B = 5, 3, 16
 LOW, HIGH = (-2.0, -1.0, -0.5), (2.0, 1.0, 0.5)  # deliberately non-symmetric per-dimension ranges
@@ -221,7 +221,7 @@ def test_bfloat16_matmul_derivatives_are_bfloat16_products_summed_in_float32():
     import flax.linen as nn
     import ml_dtypes
 
-    from agents.networks import dense_precision_options
+    from swim_jax.agents.networks import dense_precision_options
 
     to_bf16 = lambda a: np.asarray(np.asarray(a, np.float32).astype(ml_dtypes.bfloat16), np.float64)
     layer = nn.Dense(48, **dense_precision_options(jnp.float32, jnp.bfloat16))
@@ -267,7 +267,7 @@ def test_dense_derivatives_are_the_float64_products_computed_as_plain_products(x
 
     import flax.linen as nn
 
-    from agents.networks import dense_precision_options
+    from swim_jax.agents.networks import dense_precision_options
 
     layer = nn.Dense(48, **dense_precision_options(jnp.float64))
     key_x, key_p, key_c = jax.random.split(jax.random.PRNGKey(5), 3)

@@ -9,15 +9,16 @@ import sys
 
 import pytest
 
-from swim_jax import bench, plots
-from swim_jax.bench_activations import main as bench_activations_main
-from swim_jax.bench_activations import main_rsqrt
+from swim_jax import bench
+from swim_jax.analysis import plots
+from swim_jax.bench.activations import main as bench_activations_main
+from swim_jax.bench.activations import main_rsqrt
 
 
 def test_unknown_benchmark_exits_2_with_valid_choices(capsys):
     assert bench.main(["bogus"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert err == ["swim_jax.bench: unknown benchmark 'bogus'; valid: activations, rsqrt, envs, train, processes, study, profile, checkpoint, startup"]
+    assert err == ["swim_jax.bench: unknown benchmark 'bogus'; valid: activations, rsqrt, envs, train, roofline, processes, study, profile, checkpoint, startup"]
 
 
 @pytest.mark.parametrize(
@@ -92,7 +93,7 @@ def test_env_benchmark_rejects_an_unknown_env_with_exit_2(tmp_path):
 
 
 def test_env_benchmark_rejects_an_unknown_solver_with_exit_2(tmp_path, capsys):
-    from envs.bench import main as bench_envs_main
+    from swim_jax.bench.envs import main as bench_envs_main
 
     with pytest.raises(SystemExit) as e:
         bench_envs_main(["--envs", "Hopper-v5", "--solver-impl", "c,cg", "--out-dir", str(tmp_path / "o")])
@@ -115,7 +116,7 @@ def test_env_benchmark_runs_through_the_bench_cli(tmp_path):
 
 
 def test_env_benchmark_rejects_an_unknown_backend_with_exit_2(tmp_path, capsys):
-    from envs.bench import main as bench_envs_main
+    from swim_jax.bench.envs import main as bench_envs_main
 
     with pytest.raises(SystemExit) as e:
         bench_envs_main(["--envs", "Hopper-v5", "--backends", "mjx,bullet", "--out-dir", str(tmp_path / "o")])
@@ -143,7 +144,7 @@ def test_train_and_profile_benchmarks_bad_input_exit_2_nothing_written(tmp_path,
 
 @pytest.mark.slow
 def test_train_benchmark_times_real_programs_without_recompiling(tmp_path, monkeypatch):
-    from swim_jax.bench_train import main as bench_train_main
+    from swim_jax.bench.train import main as bench_train_main
 
     monkeypatch.setenv("XLA_FLAGS", os.environ.get("XLA_FLAGS", ""))  # undo --host-devices' flag afterwards
     tiny = ["--set", "agent.hidden=[16]", "--set", "agent.batch_size=16", "--host-devices", "1"]  # one program
@@ -172,8 +173,8 @@ def test_update_flops_matches_hand_count_of_the_matmuls():
     actor forward, Q1 forward, Q1 backward to its input, actor backward (no first-layer input grad).
     ReLU and Adam add a few element-wise flops per unit/parameter, hence the 10 % allowance above.
     """
-    from agents.td3 import TD3, ActivationConfig, TD3Config
-    from swim_jax.bench_train import update_flops
+    from swim_jax.agents.td3 import TD3, ActivationConfig, TD3Config
+    from swim_jax.bench.train import update_flops
 
     o, a, h, b = 5, 2, 64, 64
     agent = TD3(TD3Config(hidden=(h, h), batch_size=b, activation=ActivationConfig(name="relu")),
@@ -188,13 +189,13 @@ def test_update_flops_matches_hand_count_of_the_matmuls():
 
 
 def test_roofline_lists_the_update_products_with_their_hand_counted_flops():
-    """swim_jax.roofline: a critic-only update of a 16-16 ReLU TD3 (obs 11, act 3, batch 8)
+    """swim_jax.bench.roofline: a critic-only update of a 16-16 ReLU TD3 (obs 11, act 3, batch 8)
     has, per twin critic pass, products whose FLOPs sum to the hand count; the actor-step update
     adds the actor's; each product timed standalone gives a positive rate."""
     import jax.numpy as jnp
 
-    from agents.td3 import TD3, TD3Config
-    from swim_jax import roofline
+    from swim_jax.agents.td3 import TD3, TD3Config
+    from swim_jax.bench import roofline
 
     agent = TD3(TD3Config(hidden=(16, 16), batch_size=8), 11, (-1.0,) * 3, (1.0,) * 3, dtype=jnp.float32)
     dots = roofline.update_dots(agent)
@@ -236,7 +237,7 @@ ENTRY %main.2 (p0: f32[2,4,8], p1: f32[2,8,16], p2: f32[2,4,16], p3: f32[4,8], p
 def test_profile_reads_each_products_layout_and_flops_from_hlo():
     """bench_profile.products on a hand-written module: x@W (NN), g·Wᵀ (NT), xᵀ·g (TN), batched,
     and a fusion that contains a dot (as XLA's YNNPACK fusions do), with FLOPs 2·|out|·K."""
-    from swim_jax import bench_profile as bp
+    from swim_jax.bench import profile as bp
 
     p = bp.products(HLO_SNIPPET)
     assert {n: (q.layout, q.contracted, q.flops) for n, q in p.items() if n != "dot.9"} == {
@@ -251,7 +252,7 @@ def test_interleaved_chunk_ratios_advance_each_state_and_compare_within_rounds()
     reference's ratio to itself is exactly 1."""
     import jax.numpy as jnp
 
-    from swim_jax.bench_train import interleaved_chunk_ratios
+    from swim_jax.bench.train import interleaved_chunk_ratios
 
     calls = []
     def chunk(tag):
@@ -270,7 +271,7 @@ def test_interleaved_chunk_ratios_advance_each_state_and_compare_within_rounds()
 def test_profile_self_times_subtract_nested_operations_only():
     """A while (0–100 µs) holding a dot (10–40) and a fusion (50–70) whose Python frame (55–60) is
     not an operation; another thread's dot (0–25): self times 50, 30+25, 20; calls counted."""
-    from swim_jax import bench_profile as bp
+    from swim_jax.bench import profile as bp
 
     ev = lambda name, ts, dur, tid=1: {"ph": "X", "name": name, "ts": ts, "dur": dur, "pid": 1, "tid": tid}
     events = [ev("while.1", 0, 100), ev("dot.2", 10, 30), ev("fusion.3", 50, 20), ev("$x.py:1 f", 55, 5),
@@ -288,7 +289,7 @@ def test_profile_of_a_compiled_loop_times_its_products():
     import jax.numpy as jnp
     from jax import lax
 
-    from swim_jax import bench_profile as bp
+    from swim_jax.bench import profile as bp
 
     def f(x, w, g):
         def body(c, _):
@@ -323,13 +324,14 @@ def test_profile_benchmark_counts_the_training_steps_products(tmp_path):
     """``bench profile`` on a 2-lane 16-unit Hopper program (native physics, every step learning):
     the products it finds add up, per step, to at most the products of acting (actor on one row per
     lane) and of the TD3 update averaged over the policy delay, as the update's jaxpr lists them
-    (swim_jax.roofline), and to at least the matrix-matrix products (M, N, K > 1) of the critic
+    (swim_jax.bench.roofline), and to at least the matrix-matrix products (M, N, K > 1) of the critic
     update, which every step runs and needs in full (XLA may run a matrix-vector or outer product,
     e.g. through a critic's 1-unit head, as a multiply and a reduction, and drops the actor step's
     unused second-critic products)."""
-    from swim_jax import bench_profile as bp
+    from swim_jax.bench import profile as bp
     from swim_jax import config as cfgmod
-    from swim_jax import programs, roofline
+    from swim_jax.run import programs
+    from swim_jax.bench import roofline
 
     tiny = ["agent.hidden=[16]", "agent.batch_size=16", "env.backend=mujoco"]
     assert bp.main(["--config", "hopper_relu", "--lanes", "2", "--steps", "20", *[a for t in tiny for a in ("--set", t)],
@@ -353,7 +355,7 @@ def test_profile_benchmark_counts_the_training_steps_products(tmp_path):
 def test_startup_bench_times_the_lines_of_a_real_process_and_stops_at_the_step():
     """bench startup's clock on a real process printing a line, a progress line after a pause, and
     more steps: the times from its start, the longest silence, and the process stopped at the step."""
-    from swim_jax.bench_startup import timed_lines
+    from swim_jax.bench.startup import timed_lines
 
     code = ("import time, sys\nprint('run dir: x', flush=True)\ntime.sleep(0.6)\n"
             "print('step     5000/10000 | ...', flush=True)\nprint('step    10000/10000 | ...', flush=True)\n"

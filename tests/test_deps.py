@@ -7,7 +7,7 @@ import sys
 
 import pytest
 
-from envs import deps
+from swim_jax.envs import deps
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 

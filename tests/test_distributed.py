@@ -1,4 +1,4 @@
-"""One run's lanes over several processes (swim_jax/distributed.py): the launch facts from flags,
+"""One run's lanes over several processes (swim_jax/placement/distributed.py): the launch facts from flags,
 environment or SLURM, and real ``jax.distributed`` runs of 2 processes on 127.0.0.1 against one
 process holding the same lanes on 2 host devices (the same per-device program): bit for bit."""
 
@@ -13,9 +13,10 @@ import sys
 import numpy as np
 import pytest
 
-from swim_jax import distributed, local_processes, train
+from swim_jax.placement import distributed, local_processes
+from swim_jax.run import train
 from swim_jax.config import ConfigError
-from swim_jax.distributed import Launch, launch_from, pop_flags
+from swim_jax.placement.distributed import Launch, launch_from, pop_flags
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TINY = ["config=hopper_relu", "seeds=4", "eval_freq=1000", "learning_starts=1000", "eval_episodes=2",
@@ -75,7 +76,7 @@ def _env(tmp_path) -> dict:
 
 
 def _start(args: list[str], tmp_path, n: int = 2) -> list[subprocess.Popen]:
-    """``n`` processes of ``swim_jax.train args`` meeting at a free local port; process 0 last."""
+    """``n`` processes of ``swim_jax.run.train args`` meeting at a free local port; process 0 last."""
     launch = ["--coordinator", f"127.0.0.1:{local_processes.free_port()}", "--num-processes", str(n)]
     return [subprocess.Popen([sys.executable, "-m", "swim_jax.train", *args, *launch, "--process-id", str(i)],
                              cwd=REPO, env=_env(tmp_path), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)

@@ -9,7 +9,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-import envs
+from swim_jax import envs
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 

@@ -14,7 +14,7 @@ import jax
 import numpy as np
 import pytest
 
-import envs
+from swim_jax import envs
 
 
 @pytest.mark.slow

@@ -6,7 +6,7 @@ state is put into our env and stepped with the same action, all 2000 at once (on
 call per env). Observation, reward and terminated must match Gymnasium's outputs of that step.
 Bounds: <= 1e-4 absolute in float32 (float64, 1e-8: test_envs_equivalence_f64.py).
 
-float32 reality (docs/ENVS.md; MJX runs MuJoCo C's Newton solver, envs/mjx_solver.py): Hopper
+float32 reality (docs/ENVS.md; MJX runs MuJoCo C's Newton solver, swim_jax/envs/physics/mjx_solver.py): Hopper
 and Swimmer meet 1e-4 at every step; Walker2d, HalfCheetah and Ant meet it at the 99th percentile
 of steps but not at every step (max 1.1e-4, 5.1e-4 and 1.8e-4, on joint velocities and contact
 forces at contact events). No float32 env can: float64 physics started from the float32-rounded
@@ -21,8 +21,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-import envs
-from envs import gym_reference as gr
+from swim_jax import envs
+from swim_jax.envs import gym_reference as gr
 from envcases import env_params, teacher_forced_errors
 
 ATOL_F32 = 1e-4
@@ -139,12 +139,12 @@ def test_reset_distribution_matches_gymnasium(env_id):
 
 
 def test_line_search_slope_floor_changes_nothing_at_float32_precision(monkeypatch):
-    """envs/mjx_solver.py counts a line-search slope below 8 ulps of its terms' magnitude as zero,
+    """swim_jax/envs/physics/mjx_solver.py counts a line-search slope below 8 ulps of its terms' magnitude as zero,
     so in float32 the search stops where rounding stops it instead of running to its cap (the
     float64 tolerance is out of float32's reach). Teacher-forced Hopper steps with contacts: the
     floor moves the float32 observations by far less than their 1e-4 bound to Gymnasium (2.4e-7
     measured), and stays within that bound."""
-    from envs import mjx_solver
+    from swim_jax.envs.physics import mjx_solver
 
     rec = gr.record("Hopper-v5", 200, "random", seed=7)
     obs = {}

@@ -11,8 +11,8 @@ import pytest
 from envcases import env_params, teacher_forced_errors
 
 ATOL_F64 = 1e-8
-# Measured (docs/ENVS.md) with MuJoCo C's Newton solver (envs/mjx_solver.py) and RK4 scheme
-# (envs/mjx_compat.py): obs <= 6.3e-13 and rewards <= 4.5e-14 for every env (with MJX's own solver:
+# Measured (docs/ENVS.md) with MuJoCo C's Newton solver (swim_jax/envs/physics/mjx_solver.py) and RK4 scheme
+# (swim_jax/envs/physics/mjx_compat.py): obs <= 6.3e-13 and rewards <= 4.5e-14 for every env (with MJX's own solver:
 # up to 2.5e-6, HalfCheetah).
 # The default run checks Hopper-v5 (terminations) and HalfCheetah-v5 (most contact events).
 ALL = ("Hopper-v5", "Walker2d-v5", "HalfCheetah-v5", "Swimmer-v5", "Ant-v5", "Hopper-v4",
@@ -33,15 +33,15 @@ def test_teacher_forced_float64(env_id, x64, record_property):
 
 @pytest.mark.parametrize("constraints", [False, True], ids=["no-constraints", "contacts"])
 def test_rk4_step_matches_mujoco_c_for_a_free_joint(x64, constraints):
-    """envs.mjx_compat.rungekutta4_c: one MJX RK4 step of Ant (free root joint, spinning) equals
+    """swim_jax.envs.physics.mjx_compat.rungekutta4_c: one MJX RK4 step of Ant (free root joint, spinning) equals
     MuJoCo C's mj_step to 1e-12 in qpos, qvel and the next warm start, with constraints off (the
     integrator alone) and on (a foot in contact); MJX's own RK4 is > 1e-9 off in qpos."""
     import mujoco
     from mujoco import mjx
     from mujoco.mjx._src import forward
 
-    from envs import mjx_compat
-    from envs.base import gymnasium_asset_path
+    from swim_jax.envs.physics import mjx_compat
+    from swim_jax.envs.base import gymnasium_asset_path
 
     m = mujoco.MjModel.from_xml_path(gymnasium_asset_path("ant.xml"))
     assert m.opt.integrator == mujoco.mjtIntegrator.mjINT_RK4
@@ -75,7 +75,7 @@ def test_dexp_inv_matches_finite_differences(x64):
     import jax.numpy as jnp
     from mujoco.mjx._src import math
 
-    from envs.mjx_compat import _SERIES_BELOW, dexp_inv
+    from swim_jax.envs.physics.mjx_compat import _SERIES_BELOW, dexp_inv
 
     def log(q):
         s = np.linalg.norm(q[1:])
@@ -100,11 +100,11 @@ def test_dexp_inv_matches_finite_differences(x64):
 
 
 def test_c_solver_path_is_what_closes_the_float64_gap(x64):
-    """The float64 bound is met because of envs/mjx_solver.py: on the first 100 steps of the
+    """The float64 bound is met because of swim_jax/envs/physics/mjx_solver.py: on the first 100 steps of the
     HalfCheetah sine recording, MJX's own solver (``solver_impl="mjx"``, same tolerance 1e-8)
     misses Gymnasium by > 1e-7 (2.5e-6 measured, step 43), MuJoCo C's path (default) by <= 1e-8."""
-    import envs
-    from envs import gym_reference as gr
+    from swim_jax import envs
+    from swim_jax.envs import gym_reference as gr
 
     rec = gr.record("HalfCheetah-v5", 100, "sine", seed=7)
     err = {}

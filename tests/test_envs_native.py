@@ -7,7 +7,7 @@ thread pool): obs, reward and terminated equal Gymnasium's exactly. Closed loop:
 Gymnasium's reset state, the same 1000 actions (resetting both where Gymnasium terminates) give
 Gymnasium's trajectory exactly. In float32 JAX the physics stays float64 (carried as raw bits),
 so observations are exactly Gymnasium's rounded to float32. The default call into MuJoCo is the
-XLA FFI handler (envs/native_ffi.cc) where it builds; the Python callback is checked against
+XLA FFI handler (swim_jax/envs/physics/native_ffi.cc) where it builds; the Python callback is checked against
 Gymnasium too, and against the FFI call bit for bit.
 """
 
@@ -18,9 +18,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-import envs
-from envs import gym_reference as gr
-from envs import native_ffi
+from swim_jax import envs
+from swim_jax.envs import gym_reference as gr
+from swim_jax.envs.physics import native_ffi
 from envcases import N_STEPS, env_params
 
 ALL = ("Hopper-v5", "Walker2d-v5", "HalfCheetah-v5", "Swimmer-v5", "Ant-v5", "Hopper-v4",
@@ -134,9 +134,9 @@ def test_unknown_backend_is_one_line_naming_the_valid_ones():
 
 @pytest.mark.parametrize("shape", [(1,), (3,), (6,), (8,), (17,), (14, 6), (300,)])
 def test_reward_arithmetic_rounds_as_numpy(shape, x64):
-    """envs.terms: sum_of_squares == np.sum(np.square(x)), w * sum_of_squares - f rounds like
+    """swim_jax.envs.terms: sum_of_squares == np.sum(np.square(x)), w * sum_of_squares - f rounds like
     NumPy (no fused multiply-add), true_divide == x / dt, bit for bit on 200 random vectors."""
-    from envs.terms import rounded, sum_of_squares, true_divide
+    from swim_jax.envs.terms import rounded, sum_of_squares, true_divide
 
     rng = np.random.default_rng(len(shape) * 100 + shape[0])
     x = rng.normal(size=(200, *shape)) * 10.0 ** rng.integers(-3, 3, size=(200, *shape))

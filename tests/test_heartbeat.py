@@ -1,12 +1,12 @@
-"""The run's sign of life (swim_jax/heartbeat.py) and its ETA by phase (swim_jax/train.py)."""
+"""The run's sign of life (swim_jax/run/heartbeat.py) and its ETA by phase (swim_jax/run/train.py)."""
 
 from __future__ import annotations
 
 import time
 
 from swim_jax import config as cfgmod
-from swim_jax import train
-from swim_jax.heartbeat import Heartbeat
+from swim_jax.run import train
+from swim_jax.run.heartbeat import Heartbeat
 
 
 class FakeClock:

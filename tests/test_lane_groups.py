@@ -1,4 +1,4 @@
-"""Lanes as one group per host CPU device (swim_jax/lane_groups.py): the split, and a grouped run
+"""Lanes as one group per host CPU device (swim_jax/placement/lane_groups.py): the split, and a grouped run
 against the same run as one program (float64; host devices must be requested before JAX starts, so
 that check runs in a subprocess with XLA_FLAGS set)."""
 
@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from swim_jax import config as cfgmod
-from swim_jax.lane_groups import StepsError, plan
-from swim_jax.programs import auto_host_devices
+from swim_jax.placement.lane_groups import StepsError, plan
+from swim_jax.run.programs import auto_host_devices
 from tests.test_sharding import _python
 
 DEVICES = [SimpleNamespace(platform="cpu", id=i) for i in range(4)]
@@ -75,7 +75,7 @@ def test_grouped_training_equals_one_program(tmp_path):
         f"r = train.run(c.resolve('hopper_relu', tiny + ['lane_groups=true']), {str(tmp_path / 'resumed')!r}, resume=True, log=lambda s: None)\n"
         "resumed = max(float(np.max(np.abs(np.asarray(x) - np.asarray(y))))\n"
         "              for x, y in zip(jax.tree.leaves(r.final_actor), jax.tree.leaves(b.final_actor)))\n"
-        "from swim_jax.programs import groups_for\n"
+        "from swim_jax.run.programs import groups_for\n"
         "odd = groups_for(c.resolve('hopper_relu', tiny + ['progress_steps=125']), 3)\n"
         "one_seed = groups_for(c.resolve('hopper_relu', tiny + ['seeds=1']), 2)\n"
         "off = groups_for(c.resolve('hopper_relu', tiny + ['lane_groups=false']), 3)\n"

@@ -1,7 +1,7 @@
-"""``swim_jax.policy``: trained actors as NumPy functions, checked against the JAX actor and Gymnasium.
+"""``swim_jax.policy.policy``: trained actors as NumPy functions, checked against the JAX actor and Gymnasium.
 
 References: the registry's JAX activations (every entry's NumPy twin), the flax actor of
-agents/networks.py (random parameters for every activation, learnable or not, float32/float64 and
+swim_jax/agents/networks.py (random parameters for every activation, learnable or not, float32/float64 and
 bfloat16 matmuls; the actors of two tiny trained runs, a sweep's points included, as our
 evaluation calls them), the training state's own tree structure (which checkpoint leaves are the
 actor), and Gymnasium's env (float64, MuJoCo C: our env's rewards for the same state and actions).
@@ -20,12 +20,13 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-import envs
-from agents.td3 import TD3, ActivationConfig, TD3Config
-from swim_jax import activations_np, outputs, programs
-from swim_jax import policy as pol
+from swim_jax import envs
+from swim_jax.agents.td3 import TD3, ActivationConfig, TD3Config
+from swim_jax.policy import activations as activations_np
+from swim_jax.run import outputs, programs
+from swim_jax.policy import policy as pol
 from swim_jax.activations import ACTIVATIONS, _check_registry
-from swim_jax.render import unflatten
+from swim_jax.run.render import unflatten
 
 LOW, HIGH = (-1.0, -0.5, -2.0), (1.0, 2.0, 0.5)  # asymmetric: the tanh scaling is tested too
 OBS_SIZE = 11
@@ -77,7 +78,7 @@ def test_every_numpy_twin_is_registered_and_the_registry_refuses_a_wrong_one():
     assert set(activations_np.names()) == set(ACTIVATIONS)
     assert all(spec.numpy is activations_np.get(name) for name, spec in ACTIVATIONS.items())
     swim = ACTIVATIONS["swim"]
-    with pytest.raises(ValueError, match="numpy= must be its NumPy implementation swim_jax.activations_np.swim"):
+    with pytest.raises(ValueError, match="numpy= must be its NumPy implementation swim_jax.policy.activations.swim"):
         _check_registry({"swim": dataclasses.replace(swim, numpy=None)})
     with pytest.raises(ValueError, match="numpy= must be"):
         _check_registry({"swim": dataclasses.replace(swim, numpy=activations_np.swish)})
@@ -99,7 +100,7 @@ def test_round_bfloat16_is_jax_conversion():
 
 
 def test_known_xml_notices_are_the_envs():
-    from envs.base import KNOWN_XML_NOTICES
+    from swim_jax.envs.base import KNOWN_XML_NOTICES
 
     assert pol.KNOWN_XML_NOTICES == KNOWN_XML_NOTICES
 
@@ -171,7 +172,7 @@ def test_policy_input_checks_and_export_round_trip(tmp_path):
     np.testing.assert_array_equal(again(obs), policy(obs))
     assert again.header() == policy.header() and again.header()["layer_params"][1]["k"] == policy.layer_params[1]["k"]
     np.save(tmp_path / "x.npy", np.zeros(3))
-    with pytest.raises(pol.PolicyError, match="not a policy file written by swim_jax.evaluate --export"):
+    with pytest.raises(pol.PolicyError, match="not a policy file written by swim_jax.analysis.evaluate --export"):
         pol.load_exported(str(tmp_path / "x.npy"))
 
 
@@ -257,7 +258,7 @@ def test_load_policy_at_a_checkpoint_step(policy_runs, restore_x64):
     np.testing.assert_allclose(early(obs), ref, rtol=0, atol=1e-12)
     assert np.abs(early(obs) - pol.load_policy(res.run_dir, seed=1)(obs)).max() > 1e-6  # another policy
     # the final checkpoint read through the checkpoint path equals final_policy.npz exactly
-    from swim_jax import policy_checkpoint
+    from swim_jax.policy import checkpoint as policy_checkpoint
 
     names = pol.actor_leaf_names(run.config)
     leaves = policy_checkpoint.actor_leaves(run.checkpoints, 2000, 1, names, pol.actor_leaf_shapes(run.config, 11, 3))
@@ -275,7 +276,7 @@ def test_load_policy_errors(policy_runs, tmp_path):
     run = policy_runs["f64"].run_dir
     for call, message in [
         (lambda: pol.load_policy(str(tmp_path / "nope")), r"nope: no such run folder"),
-        (lambda: pol.load_policy(str(tmp_path)), r"no config.yaml \(not a swim_jax.train run folder\)"),
+        (lambda: pol.load_policy(str(tmp_path)), r"no config.yaml \(not a swim_jax.run.train run folder\)"),
         (lambda: pol.load_policy(run, seed=2), r"seed 2 is not in .*: its seeds are 0..1"),
         (lambda: pol.load_policy(run, step=1500), r"no policy at step 1500; valid steps: checkpoints at 1000, 2000; "
                                                   r"final_policy.npz at 2000"),
@@ -302,7 +303,7 @@ except ImportError:
     pass
 else:
     raise SystemExit("jax imported")
-from swim_jax.policy import load_exported, load_policy
+from swim_jax.policy.policy import load_exported, load_policy
 obs = np.load({str(tmp_path / 'obs.npy')!r})
 a = load_policy({run!r}, seed=1)
 b = load_policy({point!r}, seed=0)

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import yaml
 
-from swim_jax import render
+from swim_jax.run import render
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -89,12 +89,12 @@ def test_no_gl_backend_is_skipped_with_a_clear_message(monkeypatch):
 FRAMES_SCRIPT = r"""
 import json, sys
 import numpy as np
-from swim_jax import render
+from swim_jax.run import render
 try:
     gl = render.choose_gl_backend()
 except render.RenderSkipped as e:
     print(json.dumps({"skip": str(e)})); sys.exit(0)
-import envs
+from swim_jax import envs
 model = envs.make("Hopper-v5").mj_model
 qpos = np.stack([np.array(model.qpos0)] * 2)
 qpos[1, 2] = 0.3
@@ -136,7 +136,7 @@ def test_end_to_end_episode_of_an_initialised_policy(tmp_path):
     import jax
 
     from swim_jax import config as cfgmod
-    from swim_jax.programs import build
+    from swim_jax.run.programs import build
 
     cfg = cfgmod.resolve(None, ["env.id=Hopper-v5", "agent.hidden=[8,8]", "agent.activation.name=swim",
                                 "seeds=1", "total_steps=2000", "eval_freq=1000", "learning_starts=100",

@@ -1,4 +1,4 @@
-"""The replay buffer's append-only segments (swim_jax/replay_store.py) against a plain ring buffer
+"""The replay buffer's append-only segments (swim_jax/io/replay_store.py) against a plain ring buffer
 written transition by transition, with wrap-around, kept checkpoints and pruning."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import os
 import numpy as np
 import pytest
 
-from swim_jax.replay_store import FIELDS, ReplayStore
+from swim_jax.io.replay_store import FIELDS, ReplayStore
 
 LANES, OBS, ACT = 3, 4, 2
 

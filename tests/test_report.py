@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 import yaml
 
-from swim_jax import report, runs_io
-from swim_jax.report_figure import parameter_series
+from swim_jax.analysis import report, runs_io
+from swim_jax.analysis.report_figure import parameter_series
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -22,7 +22,7 @@ SWISH = np.array([[0.0, 0.0], [20.0, 30.0], [30.0, 40.0]])  # mean 0, 25, 35
 
 def write_run(root, name, env="Walker2d-v5", act="swim", returns=SWIM, total_steps=200, eval_freq=100,
               first_seed=0, seed=0, k=0.5, beta=1.0, hidden=(8, 8), precision="float32", activation=None, **extra):
-    """A minimal run folder in the format of swim_jax.train (config.yaml + evaluations.npy); the
+    """A minimal run folder in the format of swim_jax.run.train (config.yaml + evaluations.npy); the
     activation section has k and beta only (as before alpha existed) unless ``activation`` gives
     extra keys."""
     d = os.path.join(str(root), name)
@@ -393,7 +393,7 @@ def test_figure4_colours_distinct_for_any_number_of_curves(tmp_path, capsys):
 
 
 def test_figure_curve_colours_function():
-    from swim_jax.report_figure import COLORS, curve_colors
+    from swim_jax.analysis.report_figure import COLORS, curve_colors
 
     labels = ["swim", "swish", "relu"] + [f"swim(k={i})" for i in range(40)]
     cols = curve_colors(labels)
@@ -580,7 +580,7 @@ METRICS_HEADER = "step,seed,updates,critic_loss,q_mean,actor_updates,actor_loss,
 
 
 def write_metrics(run_dir, rows):
-    """metrics.csv as swim_jax.train writes it, from (step, seed, critic loss, actor loss, Q) rows."""
+    """metrics.csv as swim_jax.run.train writes it, from (step, seed, critic loss, actor loss, Q) rows."""
     lines = [METRICS_HEADER] + [f"{st},{seed},100,{c!r},{q!r},50,{a!r},3,12.5" for st, seed, c, a, q in rows]
     with open(os.path.join(run_dir, "metrics.csv"), "w") as f:
         f.write("\n".join(lines) + "\n")

@@ -1,4 +1,4 @@
-"""Lanes split over devices (swim_jax/sharding.py). Host CPU devices must be requested before JAX
+"""Lanes split over devices (swim_jax/placement/sharding.py). Host CPU devices must be requested before JAX
 starts, so the multi-device checks run in subprocesses with XLA_FLAGS set."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import sys
 import numpy as np
 import pytest
 
-from swim_jax.sharding import lane_sharding, place, set_host_devices
+from swim_jax.placement.sharding import lane_sharding, place, set_host_devices
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -40,12 +40,12 @@ def test_set_host_devices_replaces_an_existing_flag(monkeypatch):
 def test_lanes_split_over_two_host_devices():
     out = _python(
         "import json, jax, jax.numpy as jnp\n"
-        "from swim_jax.sharding import lane_sharding, place\n"
+        "from swim_jax.placement.sharding import lane_sharding, place\n"
         "sh, why = lane_sharding(4)\n"
         "x = place({'w': jnp.arange(8.).reshape(4, 2)}, sh)['w']\n"
         "y = jax.jit(lambda v: v * 2)(x)\n"
         "none, why3 = lane_sharding(3)\n"
-        "from swim_jax.sharding import over_lanes\n"
+        "from swim_jax.placement.sharding import over_lanes\n"
         "blocks = jax.jit(over_lanes(lambda v, t: jnp.zeros(v.shape[0]) + v.shape[0] + t, sh, replicated=(1,)))(x, 10.)\n"
         "print(json.dumps({'why': why, 'shards': [list(s.data.shape) for s in x.addressable_shards],\n"
         "  'devices': sorted(str(s.device) for s in y.addressable_shards), 'y': y.tolist(), 'none3': none is None, 'why3': why3,\n"

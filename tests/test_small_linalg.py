@@ -1,10 +1,10 @@
-"""envs.small_linalg (plain-JAX Cholesky used for MJX's M and the Newton Hessian) vs NumPy float64."""
+"""swim_jax.envs.physics.small_linalg (plain-JAX Cholesky used for MJX's M and the Newton Hessian) vs NumPy float64."""
 
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from envs.small_linalg import cho_solve_upper, cholesky_upper
+from swim_jax.envs.physics.small_linalg import cho_solve_upper, cholesky_upper
 
 
 @pytest.mark.parametrize("n", [1, 6, 14])

@@ -1,11 +1,11 @@
-"""swim_jax.stats against independent computations (hand values, loops, scipy where installed)."""
+"""swim_jax.analysis.stats against independent computations (hand values, loops, scipy where installed)."""
 
 import math
 
 import numpy as np
 import pytest
 
-from swim_jax import stats
+from swim_jax.analysis import stats
 
 
 def test_max_of_mean_curve_uses_std_at_the_argmax_evaluation():

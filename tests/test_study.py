@@ -19,7 +19,8 @@ import numpy as np
 import pytest
 import yaml
 
-from swim_jax import provenance, study, train
+from swim_jax.io import provenance
+from swim_jax.run import study, train
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TINY = {

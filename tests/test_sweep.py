@@ -17,11 +17,13 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from agents.replay import Transition
-from agents.td3 import TD3, ActivationConfig, TD3Config
+from swim_jax.agents.replay import Transition
+from swim_jax.agents.td3 import TD3, ActivationConfig, TD3Config
 from swim_jax import config as cfgmod
-from swim_jax import learned_params, outputs, programs, report, runs_io, sweep, train
-from swim_jax.render import RenderError, load_policy
+from swim_jax.run import learned_params, outputs, programs, train
+from swim_jax.analysis import report, runs_io
+from swim_jax import sweep
+from swim_jax.run.render import RenderError, load_policy
 
 TINY = ["seeds=2", "total_steps=3000", "eval_freq=1000", "learning_starts=1000", "eval_episodes=3",
         "replay_size=5000", "agent.hidden=[16,16]", "agent.batch_size=32", "agent.activation.learnable=true",

@@ -114,7 +114,8 @@ def test_f32_input_floor_bad_env_is_one_line_exit_2(args):
 @pytest.mark.parametrize("command", [
     ["-m", "swim_jax.bench", "activations"], ["-m", "swim_jax.bench", "rsqrt"], ["-m", "swim_jax.bench", "envs"],
     ["-m", "swim_jax.bench", "train"], ["-m", "swim_jax.bench", "processes"], ["-m", "swim_jax.bench", "profile"],
-    ["-m", "swim_jax.plots"], ["-m", "swim_jax.roofline"], ["-m", "swim_jax.report"], ["-m", "swim_jax.render"],
+    ["-m", "swim_jax.plots"], ["-m", "swim_jax.bench", "roofline"], ["-m", "swim_jax.report"], ["-m", "swim_jax.render"],
+    ["-m", "swim_jax.evaluate"], ["-m", "swim_jax.study"], ["-m", "swim_jax.bench", "checkpoint"], ["-m", "swim_jax.bench", "startup"],
     ["tools/bench_program_variants.py"], ["tools/bench_compiler_options.py"], ["tools/bench_native_host.py"],
     ["tools/bench_peers.py"],
 ], ids=lambda c: " ".join(c).replace("-m ", ""))

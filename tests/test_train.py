@@ -23,10 +23,12 @@ import pytest
 from tensorboardX.crc32c import crc32c
 from tensorboardX.proto.event_pb2 import Event, SessionLog
 
-from agents import loop
+from swim_jax.agents import loop
 from swim_jax import config as cfgmod
-from swim_jax import learning_log, report, tensorboard_log, train
-from swim_jax.programs import matmul_dtype, programs, with_physics_backend
+from swim_jax.io import learning_log, tensorboard_log
+from swim_jax.analysis import report
+from swim_jax.run import train
+from swim_jax.run.programs import matmul_dtype, programs, with_physics_backend
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TINY = [
@@ -255,8 +257,8 @@ def test_report_plots_the_runs_learning_metrics(vmapped, tmp_path, capsys):
 
 def test_chunk_metrics_are_count_weighted_means():
     """loop.summarize_updates and learning_log.combine against NumPy on synthetic metrics."""
-    from agents.loop import summarize_updates
-    from agents.td3 import UpdateMetrics
+    from swim_jax.agents.loop import summarize_updates
+    from swim_jax.agents.td3 import UpdateMetrics
 
     rng = np.random.default_rng(0)
     T, L = 6, 3
@@ -282,7 +284,7 @@ def test_chunk_metrics_are_count_weighted_means():
 
 def uniform_random_returns(cfg, eval_keys, eval_index):
     """Returns ``[seeds, eval_episodes]`` of U(low, high) actions from the episodes the run's
-    evaluation ``eval_index`` starts (the same reset keys), built from agents/loop.py's pieces."""
+    evaluation ``eval_index`` starts (the same reset keys), built from swim_jax/agents/loop.py's pieces."""
     prog = programs(cfg)
 
     def run(eval_keys, eval_index):
@@ -335,8 +337,8 @@ def test_checkpoints_hold_each_transition_once_and_rebuild_the_buffer_exactly(vm
     """The orbax checkpoints hold no replay buffer; checkpoints/replay/ holds every transition once,
     one segment per chunk; the buffer rebuilt from it at step 4000 is the run's final buffer, bit
     for bit (slots never written: zeros)."""
-    from swim_jax.checkpoint import Checkpointer
-    from swim_jax.replay_store import ReplayStore
+    from swim_jax.io.checkpoint import Checkpointer
+    from swim_jax.io.replay_store import ReplayStore
 
     ckpt_dir = os.path.join(vmapped.run_dir, "checkpoints")
     store = ReplayStore(os.path.join(ckpt_dir, "replay"), 10000)
@@ -489,7 +491,7 @@ def test_resume_after_sigkill_matches_uninterrupted_run(tmp_path):
     ``--resume``: identical evaluations (every episode) and final actor parameters, and the
     resumed process compiles each program once. All three processes share a persistent
     compilation cache (the later two load the first one's executables instead of compiling);
-    the reference is a CLI run rather than the in-process fixture so that the envs/agents code
+    the reference is a CLI run rather than the in-process fixture so that the swim_jax/envs/agents code
     cannot change between reference and resume in a working tree that others edit."""
     env = dict(os.environ, JAX_COMPILATION_CACHE_DIR=str(tmp_path / "jax_cache"),
                JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS="0", PYTHONUNBUFFERED="1")
@@ -567,7 +569,7 @@ def test_divergence_stops_with_message_and_keeps_last_good_checkpoint(tmp_path):
     assert not os.path.exists(os.path.join(run_dir, "final_policy.npz"))
     cfg = train.parse_args(["--resume", run_dir])[0]
     prog = programs(cfg)
-    from swim_jax.checkpoint import Checkpointer
+    from swim_jax.io.checkpoint import Checkpointer
 
     ck = Checkpointer(os.path.join(run_dir, "checkpoints"))
     ids = jnp.arange(2, dtype=jnp.int32)
@@ -593,7 +595,7 @@ def test_ynn_fusions_are_off_in_the_cpu_training_chunk_unless_asked_for():
 def test_matmul_dtype_auto_is_bfloat16_only_for_float32_on_a_cpu_with_bfloat16_dot_instructions():
     """matmul_dtype: bfloat16 always, full never, auto when the CPU flags name AVX-512 BF16 or AMX
     and the run is float32 (float64 runs keep float64 products)."""
-    from swim_jax import hardware
+    from swim_jax.io import hardware
 
     zen4, old = frozenset({"avx2", "avx512f", "avx512_bf16"}), frozenset({"avx2", "avx512f"})
     assert hardware.native_bf16(zen4) == "avx512_bf16"

@@ -18,9 +18,9 @@ import argparse
 import jax
 import jax.numpy as jnp
 
-from swim_jax import cli_parser
+from swim_jax.io import cli_parser
 from swim_jax import config as cfgmod
-from swim_jax.bench_train import interleaved_chunk_ratios, lanes_program, learning_phase_overrides
+from swim_jax.bench.train import interleaved_chunk_ratios, lanes_program, learning_phase_overrides
 
 OPTION_SETS = {
     "xla_default": {},

@@ -18,8 +18,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-import envs
-from swim_jax import cli_parser
+from swim_jax import envs
+from swim_jax.io import cli_parser
 
 
 def callback_floor_ms(calls: int = 1000, repeats: int = 10) -> float:

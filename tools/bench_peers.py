@@ -55,7 +55,7 @@ CPU time per wall second of each process (≈ 1 for a really single-threaded pro
 
 ``--our-processes P`` (P > 1) adds a row: ours with the same lanes as P ``jax.distributed`` processes,
 one pinned to each core (the real ``python -m swim_jax.train`` command; env-steps/s of its one timed
-learning chunk of ``--steps`` steps from timing.json; ``swim_jax.bench_processes``), float32 and bfloat16.
+learning chunk of ``--steps`` steps from timing.json; ``swim_jax.bench.processes``), float32 and bfloat16.
 
 Bad input (unknown env, a non-positive number, a missing --peer-python or one lacking the peers'
 packages): one line on stderr naming what is valid, exit status 2, nothing written.
@@ -79,9 +79,9 @@ ROOT = os.path.dirname(TOOLS)
 if TOOLS not in sys.path:
     sys.path.insert(0, TOOLS)
 from bench_pytorch_td3 import CONFIGS  # noqa: E402  env id → our *_relu config
-from swim_jax import cli_parser  # noqa: E402
-from swim_jax.bench_io import cpu_model, write_result  # noqa: E402
-from swim_jax.bench_processes import train_args, train_rate  # noqa: E402
+from swim_jax.io import cli_parser  # noqa: E402
+from swim_jax.io.bench_results import cpu_model, write_result  # noqa: E402
+from swim_jax.bench.processes import train_args, train_rate  # noqa: E402
 
 WORKER = os.path.join(TOOLS, "peers_td3.py")
 PEERS = ("pytorch", "cleanrl")
@@ -112,7 +112,7 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--lanes", default="5", help="lanes of our program (default 5)")
     p.add_argument("--our-processes", default="1",
                    help="also time ours as this many jax.distributed processes, one per core "
-                        "(swim_jax.bench_processes; --lanes must divide by it; default 1 = not)")
+                        "(swim_jax.bench.processes; --lanes must divide by it; default 1 = not)")
     p.add_argument("--ours", default=",".join(OURS),
                    help=f"comma-separated rows of ours to time (default all); valid: {', '.join(OURS)}")
     p.add_argument("--procs", default=str(os.cpu_count() or 1),

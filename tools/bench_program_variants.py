@@ -11,7 +11,7 @@ nothing), the median ms per step and the median ratio of step times against the 
 With bfloat16 products (``--set matmul_dtype=bfloat16``) the current code already has the
 ``kernel_nt`` and ``shared_critic_input`` forms, so those variants compile the same program there.
 
-The program cache (``swim_jax.programs._PROGRAMS``) and JAX's trace caches are cleared before every
+The program cache (``swim_jax.run.programs._PROGRAMS``) and JAX's trace caches are cleared before every
 variant: without that, every variant would compile the first one's program.
 """
 
@@ -27,10 +27,11 @@ import jax
 import jax.numpy as jnp
 from jax import lax
 
-from agents import loop, networks, td3
-from swim_jax import cli_parser
-from swim_jax import config as cfgmod, programs
-from swim_jax.bench_train import interleaved_chunk_ratios, lanes_program, learning_phase_overrides
+from swim_jax.agents import loop, networks, td3
+from swim_jax.io import cli_parser
+from swim_jax import config as cfgmod
+from swim_jax.run import programs
+from swim_jax.bench.train import interleaved_chunk_ratios, lanes_program, learning_phase_overrides
 
 
 @contextlib.contextmanager

@@ -9,7 +9,7 @@ Actor s→256→256→a (ReLU, tanh·max_action), twin critics (s,a)→256→256
 0.1·max_action, a NumPy replay buffer, and Gymnasium's own (native MuJoCo) env. Each timed block is
 ``--steps`` env steps, each followed by one training iteration (the learning phase).
 
-The JAX side is ``swim_jax.train``'s compiled chunk for ``config=<env>_relu`` with ``--lanes`` seeds
+The JAX side is ``swim_jax.run.train``'s compiled chunk for ``config=<env>_relu`` with ``--lanes`` seeds
 (every step an update, ``learning_starts=0``). Blocks of the two alternate in ONE process, so
 machine noise hits both alike; medians are reported, and the ratio
 
@@ -141,7 +141,7 @@ def main(argv=None) -> int:
     import jax.numpy as jnp
 
     from swim_jax import config as cfgmod
-    from swim_jax.bench_train import lanes_program, learning_phase_overrides
+    from swim_jax.bench.train import lanes_program, learning_phase_overrides
 
     torch_step = pytorch_td3(args.env)
     for _ in range(1000):  # random warm-up fills the buffer (the original uses 25k; speed is the same)

@@ -15,7 +15,7 @@ import sys
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-from swim_jax import runs_io, stats  # noqa: E402
+from swim_jax.analysis import runs_io, stats  # noqa: E402
 
 
 def scores(run: runs_io.Run) -> dict:

@@ -1,0 +1,75 @@
+"""The actor of one lane out of a training checkpoint (``checkpoints/<step>/``), for ``swim_jax.policy.policy``.
+
+swim_jax/io/checkpoint.py stores the whole training state (``(TrainState, evaluations)``) as orbax
+leaves ``"00000"``, ``"00001"``, … in ``jax.tree.leaves`` order, zero-size leaves left out. The
+online actor's parameters are the first run of consecutive leaves shaped like the actor: the
+``TD3State`` inside ``TrainState`` starts with it (swim_jax/agents/loop.py, swim_jax/agents/td3.py), its leaves in the
+sorted order of :func:`swim_jax.policy.policy.actor_leaf_names`, each with the lanes in front
+(``[lanes, …]``); what comes before it (keys, env state, replay buffer) has other shapes, and the
+critics carry a critic axis. Only those leaves are read (orbax partial restore), so this works for
+checkpoints with or without the replay buffer inside. Reading orbax needs JAX, so this module is
+imported only when a policy at a checkpoint step is asked for.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from typing import Sequence
+
+import numpy as np
+
+
+def _orbax():
+    logging.getLogger("absl").setLevel(logging.ERROR)  # "metadata file does not exist" notices
+    import orbax.checkpoint as ocp
+
+    return ocp
+
+
+def stored_leaves(path: str) -> dict[str, tuple[tuple[int, ...], np.dtype]]:
+    """``{key: (shape, dtype)}`` of every leaf in the orbax item at ``path`` (``<step>/default``)."""
+    ocp = _orbax()
+    meta = ocp.StandardCheckpointer().metadata(path).item_metadata
+    tree = getattr(meta, "tree", meta)
+    return {k: (tuple(v.shape), np.dtype(v.dtype)) for k, v in dict(tree).items()}
+
+
+def find_actor(leaves: dict[str, tuple[tuple[int, ...], np.dtype]], shapes: Sequence[tuple[int, ...]]) -> list[str]:
+    """The keys of the first run of consecutive leaves (by index) of floats whose shapes after one
+    common lane axis are ``shapes``; ValueError when there is none."""
+    index = {int(k): k for k in leaves}
+    n = len(shapes)
+    for start in sorted(index):
+        keys = [index.get(start + j) for j in range(n)]
+        if None in keys:
+            continue
+        found = [leaves[k] for k in keys]
+        lanes = {s[0][0] if s[0] else None for s in found}
+        if len(lanes) != 1 or None in lanes or any(d.kind != "f" for _, d in found):
+            continue
+        if all(shape[1:] == tuple(want) for (shape, _), want in zip(found, shapes)):
+            return keys
+    raise ValueError("no run of leaves shaped like the actor (is it a swim_jax.run.train checkpoint of this config?)")
+
+
+def actor_leaves(checkpoints: str, step: int, lane: int, names: Sequence[str],
+                 shapes: Sequence[tuple[int, ...]]) -> dict[str, np.ndarray]:
+    """``{name: array}`` of lane ``lane``'s actor at checkpoint ``step`` under ``checkpoints``:
+    ``names`` are the actor's leaf names in flattening order (``swim_jax.policy.policy.actor_leaf_names``),
+    ``shapes`` their shapes without the lane axis. ValueError when the checkpoint has no such leaves
+    or no such lane."""
+    path = os.path.join(checkpoints, str(int(step)), "default")
+    if not os.path.isdir(path):
+        raise ValueError(f"no checkpoint item at {path}")
+    leaves = stored_leaves(path)
+    keys = find_actor(leaves, shapes)
+    lanes = leaves[keys[0]][0][0]
+    if not 0 <= lane < lanes:
+        raise ValueError(f"lane {lane} is not in the checkpoint's {lanes} lanes")
+    ocp = _orbax()
+    item = {k: np.zeros(leaves[k][0], leaves[k][1]) for k in keys}
+    restore = {k: ocp.RestoreArgs(restore_type=np.ndarray) for k in keys}
+    out = ocp.PyTreeCheckpointer().restore(path, args=ocp.args.PyTreeRestore(
+        item=item, restore_args=restore, partial_restore=True))
+    return {name: np.asarray(out[k])[lane] for name, k in zip(names, keys)}

@@ -1,0 +1,293 @@
+"""The training program of a config: env, agent and the jitted functions, built once per process.
+
+``placement(cfg)`` decides how the lanes spread over the devices (of every process: a sharding of one
+program, or on a CPU one program per group of lanes, swim_jax/placement/lane_groups.py), ``programs(cfg,
+sharding)`` builds (or reuses) the env, eval env, TD3 agent and the three jitted functions of
+swim_jax/agents/loop.py for that placement, and ``lanes(cfg, prog, sharding)`` gives their per-lane inputs
+(seed ids, sweep values). ``swim_jax.run.train`` runs them; ``swim_jax.run.render``/``roofline`` use
+:func:`build` and ``swim_jax.bench.train`` times :func:`programs`' chunk.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from dataclasses import dataclass
+from typing import Callable
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax._src import xla_bridge
+
+from swim_jax import envs
+from swim_jax.agents import loop
+from swim_jax.agents.td3 import TD3
+from swim_jax import config as cfgmod
+from swim_jax.io import hardware
+from swim_jax.placement import lane_groups
+from swim_jax.config import Config
+from swim_jax.placement.sharding import lane_sharding, over_lanes, place
+
+
+def _setup_precision(cfg: Config) -> None:
+    jax.config.update("jax_enable_x64", cfg.precision == "float64")
+
+
+def physics_backend(cfg: Config) -> tuple[str, str]:
+    """(the physics backend ``cfg`` runs, why, in words for the start-up line). ``env.backend=auto``
+    is ``mujoco`` (MuJoCo C inside the jitted program, faster on a CPU: docs/BENCHMARKS.md) when
+    JAX's default backend is the CPU, else ``mjx``; asking for it starts JAX's backends."""
+    if cfg.env.backend != "auto":
+        return cfg.env.backend, f"env.backend={cfg.env.backend}"
+    platform = jax.default_backend()
+    if platform == "cpu":
+        return "mujoco", "env.backend=auto on a CPU: MuJoCo C, the faster there; env.backend=mjx for MJX"
+    return "mjx", f"env.backend=auto on {platform}: MJX; env.backend=mujoco for MuJoCo C on the host"
+
+
+def with_physics_backend(cfg: Config) -> Config:
+    """``cfg`` with ``env.backend=auto`` replaced by what :func:`physics_backend` chooses here."""
+    backend, _ = physics_backend(cfg)
+    return cfg if backend == cfg.env.backend else dataclasses.replace(
+        cfg, env=dataclasses.replace(cfg.env, backend=backend))
+
+
+def build(cfg: Config):
+    """(env, eval env, agent) for a validated config, in the configured precision."""
+    _setup_precision(cfg)
+    backend, _ = physics_backend(cfg)
+    options = dict(max_episode_steps=cfg.env.max_episode_steps, backend=backend)
+    if backend == "mujoco":
+        options["native_call"] = cfg.env.native_call
+    try:
+        env, eval_env = envs.make(cfg.env.id, **options), envs.make(cfg.env.id, **options)
+    except ValueError as e:  # e.g. native_call=ffi where the FFI is unavailable
+        raise cfgmod.ConfigError(str(e)) from None
+    dtype = jnp.float64 if cfg.precision == "float64" else jnp.float32
+    agent = TD3(
+        cfg.agent,
+        env.observation_size,
+        tuple(float(x) for x in np.asarray(env.action_low)),
+        tuple(float(x) for x in np.asarray(env.action_high)),
+        dtype=dtype,
+        matmul_dtype=matmul_dtype(cfg)[0],
+    )
+    return env, eval_env, agent
+
+
+def matmul_dtype(cfg: Config, cpu_flags: frozenset[str] | None = None) -> tuple[object, str]:
+    """The Dense layers' matmul type (None = the run's precision, or ``jnp.bfloat16``) and why, in
+    words for the start-up line. ``bfloat16``: always; ``full``: never; ``auto``: bfloat16 when the
+    run is float32 on a CPU backend whose CPU has bfloat16 dot instructions (AVX-512 BF16 or AMX in
+    ``cpu_flags``, default this machine's: ``swim_jax.io.hardware``), else the run's precision; auto's
+    choice rests on learning parity with float32 on HalfCheetah-v5 (docs/BENCHMARKS.md section 6)."""
+    if cfg.matmul_dtype == "bfloat16":
+        return jnp.bfloat16, "bfloat16 matmuls (matmul_dtype=bfloat16)"
+    flag = hardware.native_bf16(cpu_flags)
+    if cfg.matmul_dtype == "auto" and flag and cfg.precision == "float32" and jax.default_backend() == "cpu":
+        return jnp.bfloat16, f"bfloat16 matmuls (matmul_dtype=auto: this CPU has {flag}; full: float32)"
+    return None, f"{cfg.precision} matmuls"
+
+
+@dataclass
+class Programs:
+    """The jitted functions of one training program (see swim_jax/agents/loop.py)."""
+
+    env: object
+    eval_env: object
+    agent: object
+    init_fn: object  # (base_seed uint32, seed_ids int32[L][, hparams {path: [L]}]) -> TrainState[L]
+    chunk_fn: object  # (TrainState[L], t0 int32[, hparams]) -> TrainState[L] after steps_per_call(cfg) steps; donated
+    eval_fn: object  # (actor[L], eval_keys[L], eval_index int32[, hparams]) -> returns[L, E]
+
+
+_PROGRAMS: dict = {}
+
+
+def real_lanes(cfg: Config) -> int:
+    """The lanes that train a seed of a sweep point: sweep points × ``seeds`` (no padding lane)."""
+    return len(cfgmod.sweep_points(cfg)) * cfg.seeds
+
+
+def num_lanes(cfg: Config) -> int:
+    """Width of the vmapped lane axis: sweep points × ``seeds``, or 2 for a padded single-lane run.
+
+    Why pad: with a unit vmap axis XLA CPU simplifies the batched MJX physics differently, which
+    changes float rounding (~1e-5 after ~10 steps), so seed i alone would drift from seed i in a
+    multi-seed run. Lanes ≥ 2 compute each seed bit-identically at the same lane count per device
+    (tests/test_train.py); another lane count rounds the updates differently (XLA compiles the
+    batched bias-gradient reductions per shape; ~1e-8 after one update, docs/DISTRIBUTED.md)."""
+    real = real_lanes(cfg)
+    return 2 if real == 1 and cfg.pad_single_seed else real
+
+
+def lane_inputs(cfg: Config, dtype) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """(seed index per lane int32[L], sweep values per lane ``{agent path: [L]}``).
+
+    Lane ``p·seeds + s`` is seed ``first_seed + s`` of sweep point ``p`` (every point sees the
+    same seeds); a padded lane repeats lane 0. Paths drop the ``agent.`` prefix
+    (``activation.k``), as ``TD3.with_hparams`` takes them."""
+    lanes = num_lanes(cfg)
+    points = cfgmod.sweep_points(cfg)
+    seeds = np.arange(cfg.first_seed, cfg.first_seed + cfg.seeds)
+    seed_ids = np.resize(np.tile(seeds, len(points)), lanes).astype(np.int32)
+    hparams = {
+        key.split(".", 1)[1]: np.resize(np.repeat([p[key] for p in points], cfg.seeds), lanes).astype(dtype)
+        for key in cfg.sweep
+    }
+    return seed_ids, hparams
+
+
+def chunk_compiler_options(cfg: Config) -> dict:
+    """XLA options of the training chunk: on a CPU backend, XLA's YNNPACK library fusions are
+    switched off unless ``cfg.xla_cpu_ynn_fusions`` (within noise for float32; config.py) or the
+    matmuls are bfloat16 (XLA's CPU backend multiplies bfloat16 natively only inside those fusions;
+    elsewhere it converts the operands to float32 first)."""
+    if cfg.xla_cpu_ynn_fusions or matmul_dtype(cfg)[0] is not None or jax.default_backend() != "cpu":
+        return {}
+    return {"xla_cpu_experimental_ynn_fusion_type": ""}
+
+
+def programs(cfg: Config, sharding=None) -> Programs:
+    """Build (or reuse, within this process) the env, agent and jitted functions for ``cfg``, with
+    the lanes split over ``sharding``'s devices (``swim_jax.placement.sharding.over_lanes``) unless None.
+
+    The compiled program depends only on the fields in the cache key, not on seeds' identities,
+    total_steps or outputs, so e.g. a resumed or re-run config in the same process compiles nothing."""
+    _setup_precision(cfg)
+    # every config field that changes the built program (seeds only change the lane shapes)
+    key = (cfg.env, cfg.agent, cfg.learning_starts, cfgmod.steps_per_call(cfg), cfg.eval_episodes,
+           cfg.replay_size, cfg.precision, cfg.matmul_dtype, cfg.matmul_precision, cfg.xla_cpu_ynn_fusions,
+           sharding)
+    if key not in _PROGRAMS:
+        env, eval_env, agent = build(cfg)
+        def init_lanes(base, seed_ids, hparams=None):
+            return jax.vmap(lambda i, h: loop.init_state(agent, env, cfg.replay_size, base, i, h))(seed_ids, hparams)
+
+        chunk = loop.make_chunk_fn(agent, env, cfg.learning_starts, cfgmod.steps_per_call(cfg))
+        evaluate = loop.make_eval_fn(agent, eval_env, cfg.eval_episodes, cfg.env.max_episode_steps)
+        # the replicated arguments: the base seed, the chunk's first step, the evaluation index
+        init_fn = jax.jit(over_lanes(init_lanes, sharding, replicated=(0,)))
+        chunk_fn = jax.jit(over_lanes(chunk, sharding, replicated=(1,)), donate_argnums=0,
+                           compiler_options=chunk_compiler_options(cfg))
+        eval_fn = jax.jit(over_lanes(evaluate, sharding, replicated=(2,)))
+        _PROGRAMS[key] = Programs(env, eval_env, agent, init_fn, chunk_fn, eval_fn)
+    return _PROGRAMS[key]
+
+
+@dataclass
+class Lanes:
+    """The per-lane inputs of a run's programs, placed on the devices."""
+
+    count: int  # lanes ≥ sweep points × seeds (a padded single-lane run has 2)
+    seed_ids: np.ndarray  # int32[L]: the seed of every lane (host copy, for the run's files)
+    init_args: tuple  # (base_seed, seed_ids[, hparams]): ``init_fn``'s arguments
+    sweep_args: tuple  # (hparams,) with a sweep, () without: the extra argument of chunk_fn/eval_fn
+    sharding: object  # the lane axis' sharding over devices, or None (one device)
+    groups: lane_groups.LaneGroups | None = None  # one program per group of lanes (CPU), or None
+
+
+def auto_host_devices(cfg: Config) -> int:
+    """Host CPU devices to ask for when ``host_devices`` is 0: with ``lane_groups=true`` and one
+    process on this machine, one per usable core and at most one per real lane (0: leave JAX's
+    default of one, i.e. with one core or one seed, or when ``XLA_FLAGS`` already sets a count).
+    Harmless on a GPU machine (it only shapes the CPU platform)."""
+    if cfg.host_devices or not cfg.lane_groups or cfg.local_processes > 1:
+        return 0
+    if "--xla_force_host_platform_device_count=" in os.environ.get("XLA_FLAGS", ""):
+        return 0
+    n = min(len(os.sched_getaffinity(0)), real_lanes(cfg))
+    return n if n >= 2 else 0
+
+
+def groups_for(cfg: Config, count: int) -> tuple[lane_groups.LaneGroups | None, str]:
+    """The lane groups of ``count`` lanes of ``cfg`` (swim_jax/placement/lane_groups.py), or None and, when
+    only the steps per call stand in the way, why in words. Groups need ``lane_groups=true``, a CPU
+    backend, one process, at least two host devices and two real lanes (a padded single seed stays
+    one program, so that it equals the same seed of a multi-seed run), and, with leftover lanes,
+    steps per call that cut into one equal piece per device."""
+    if not cfg.lane_groups or jax.process_count() > 1 or jax.default_backend() != "cpu" or real_lanes(cfg) < 2:
+        return None, ""
+    try:
+        return lane_groups.plan(count, jax.local_devices(), cfgmod.steps_per_call(cfg)), ""
+    except lane_groups.StepsError as e:
+        return None, f"{e}; set progress_steps (dividing eval_freq={cfg.eval_freq}) to such a multiple"
+
+
+def grouped_chunks(cfg: Config, prog: Programs, groups: lane_groups.LaneGroups | None):
+    """The :class:`~swim_jax.placement.lane_groups.GroupedChunks` stepping ``prog``'s chunk as ``groups``
+    (None without groups); a leftover lane's pieces run the same program built for 1/D of the
+    steps per call (D devices)."""
+    if groups is None:
+        return None
+    per_call = cfgmod.steps_per_call(cfg)
+    piece_steps = per_call // len(groups.devices)
+    pieces = programs(dataclasses.replace(cfg, progress_steps=piece_steps)).chunk_fn if groups.leftover else None
+    return lane_groups.GroupedChunks(groups, prog.chunk_fn, pieces, per_call)
+
+
+def placement(cfg: Config, log: Callable[[str], None]):
+    """How ``cfg``'s lanes spread over the devices: ``(sharding, groups)``. On a CPU backend in one
+    process with several host devices and ``lane_groups=true``, ``groups`` (swim_jax/placement/lane_groups.py:
+    one program per group of lanes, one group per device) and no sharding; otherwise no groups and
+    the sharding of the lane axis over the devices of every process, or None (all lanes on one
+    device). ``log`` gets how (when there are several devices; why there are no lane groups when
+    only the steps per call stand in the way) and a warning when ``host_devices`` asks for more
+    than JAX started with. ConfigError when several processes run and the lanes cannot be split
+    over all their devices."""
+    count = num_lanes(cfg)
+    if cfg.host_devices and jax.devices()[0].platform == "cpu" and jax.local_device_count() != cfg.host_devices:
+        log(f"warning: host_devices={cfg.host_devices} but JAX started with {jax.local_device_count()} devices; "
+            f"set XLA_FLAGS=--xla_force_host_platform_device_count={cfg.host_devices} before Python starts")
+    groups, why_not = groups_for(cfg, count)
+    if groups is not None:
+        log(f"lanes: {groups.describe()}")
+        return None, groups
+    if why_not:
+        log(f"lanes: no lane groups ({why_not})")
+    sharding, how = lane_sharding(count) if cfg.shard_lanes else (None, "shard_lanes=false")
+    if jax.process_count() > 1:
+        if sharding is None:
+            raise cfgmod.ConfigError(
+                f"{count} lanes cannot run on {jax.process_count()} processes with {jax.device_count()} devices "
+                f"({how}); use a multiple of {jax.device_count()} lanes (seeds × sweep points) and shard_lanes=true")
+        how += f" in {jax.process_count()} processes"
+    if jax.device_count() > 1:
+        log(f"lanes: {how}")
+    return sharding, None
+
+
+def lanes(cfg: Config, prog: Programs, sharding, groups: lane_groups.LaneGroups | None = None) -> Lanes:
+    """The lanes of ``cfg`` for ``prog`` (built for ``sharding``; both from :func:`placement`)."""
+    count = num_lanes(cfg)
+    seed_ids, hparams_np = lane_inputs(cfg, prog.agent.dtype)
+    on_lanes = jnp.asarray if sharding is None else (lambda x: place(x, sharding))  # NumPy → device arrays
+    hparams = {k: on_lanes(v) for k, v in hparams_np.items()}
+    sweep_args = (hparams,) if hparams else ()  # no sweep: the functions' 2-/3-argument signatures
+    init_args = (jnp.asarray(cfg.seed, jnp.uint32), on_lanes(seed_ids), *sweep_args)
+    return Lanes(count, seed_ids, init_args, sweep_args, sharding, groups)
+
+
+def compilation_cache_dir() -> str:
+    """``$XDG_CACHE_HOME/swim-jax/xla`` (default ``~/.cache/swim-jax/xla``)."""
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return os.path.join(base, "swim-jax", "xla")
+
+
+def use_compilation_cache() -> str | None:
+    """Turn on JAX's persistent compilation cache in :func:`compilation_cache_dir` unless
+    ``SWIM_JAX_NO_COMPILATION_CACHE`` is set or a cache folder is already configured (e.g. by
+    ``JAX_COMPILATION_CACHE_DIR``); returns the folder in use. Programs with host callbacks (the
+    native physics backend) are not cached by JAX; they compile in seconds."""
+    if os.environ.get("SWIM_JAX_NO_COMPILATION_CACHE"):
+        return None
+    if not jax.config.jax_compilation_cache_dir:
+        jax.config.update("jax_compilation_cache_dir", compilation_cache_dir())
+        jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
+    return jax.config.jax_compilation_cache_dir
+
+
+def backends_started() -> bool:
+    """Whether JAX has started its backends (after which ``XLA_FLAGS`` is no longer read)."""
+    return bool(xla_bridge._backends)

@@ -1,0 +1,581 @@
+"""Train TD3 on every seed at once: ``python -m swim_jax.train config=walker_swim [key=value ...]``.
+
+    python -m swim_jax.train config=cheetah_swim seeds=5 total_steps=200000 precision=float64
+    python -m swim_jax.train --resume runs/cheetah_swim-20260101-120000     (or resume=<dir>)
+
+The jitted program (swim_jax/agents/loop.py) runs ``eval_freq`` env steps (with their updates) for all seeds
+per call; this module only loops over those chunks: evaluation (step 0 and after every chunk, so
+1 + total_steps/eval_freq evaluations, like the original TD3 code), progress line, checkpoint.
+
+Outputs in ``<out_dir>/<name>-<UTC timestamp>/``:
+  config.yaml                  the resolved config (what ``--resume`` reloads)
+  evaluations.csv              step, seed_<i> (mean return of the eval episodes), mean, std
+  evaluations.npy              [n_evals, seeds] mean returns; evaluations_seed<i>.npy: [n_evals]
+  evaluations_episodes.npy     [n_evals, seeds, eval_episodes] every episode's return
+  timing.json                  wall time, env-steps/s (aggregate and per seed), compile counts
+  checkpoints/<step>/          orbax: the whole training state (last ``keep_checkpoints``)
+  final_policy.npz             actor parameters, leading axis = seed
+  metrics.csv                  per chunk and seed: updates, critic/actor loss, mean Q, episodes, last
+                               training episode's return (swim_jax/io/learning_log.py)
+  tensorboard/seed_<i>/        with ``tensorboard=true``: metrics.csv's scalars and the evaluation
+                               returns as TensorBoard event files (swim_jax/io/tensorboard_log.py)
+  activation_params.csv        learnable k/beta per layer, seed and evaluation (learnable runs)
+  point.json                   sweep points only: the point's label and swept values
+  provenance.json              one entry per start/resume: git commit and dirty flag, package
+                               versions, CPU model, command line (swim_jax/io/provenance.py)
+
+A sweep (``python -m swim_jax.sweep``, config key ``sweep``) trains every grid point × seed as a
+lane of the same program; the run folder then holds ``sweep.csv`` (one row per point) and, per
+point, ``points/<label>/`` with the files above (its config.yaml is the point's plain config, so
+``swim_jax.analysis.report`` and ``swim_jax.run.render`` read a point like any run). Checkpoints stay at the top.
+
+Modules: swim_jax/run/programs.py builds the jitted program and its per-lane inputs (cached per
+process), swim_jax/run/outputs.py writes the run folder's files, and this module runs the loop
+(:func:`run`) and the command line.
+
+Several processes or hosts (``--coordinator host:port --num-processes N --process-id i``, or the
+``JAX_*``/SLURM environment; swim_jax/placement/distributed.py, docs/DISTRIBUTED.md) split the lanes over all
+their devices; process 0 prints and writes the run folder, every process writes its checkpoint part.
+
+Exit status: 0 done; 2 bad command line/config (one line on stderr, nothing written);
+3 NaN/inf detected (message names seed, step and quantity; last good checkpoint kept);
+4 several processes: another process was lost (one line; resume from the checkpoint it names).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import sys
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import yaml
+
+from swim_jax.agents.loop import CHECKED, ChunkMetrics
+from swim_jax import config as cfgmod
+from swim_jax.placement import distributed, local_processes
+from swim_jax.io import learning_log, provenance
+from swim_jax.run import outputs
+from swim_jax.io.checkpoint import Checkpointer, latest_complete_step
+from swim_jax.config import Config, ConfigError
+from swim_jax.placement.distributed import to_host
+from swim_jax.run.heartbeat import Heartbeat, fmt_duration
+from swim_jax.io.replay_store import DIRNAME as REPLAY_DIR
+from swim_jax.io.replay_store import ReplayStore
+from swim_jax.placement.lane_groups import GroupedChunks
+from swim_jax.run.programs import Lanes, Programs, auto_host_devices, backends_started, grouped_chunks, lanes as program_lanes, matmul_dtype, num_lanes, physics_backend, placement, programs, real_lanes, use_compilation_cache, with_physics_backend
+from swim_jax.placement.sharding import place, set_host_devices
+
+USAGE = (
+    "usage: python -m swim_jax.train config=<name> [key=value ...]   (sweeps: python -m swim_jax.sweep)\n"
+    "       python -m swim_jax.train --resume <run dir>\n"
+    "several processes (every one runs the same command; docs/DISTRIBUTED.md):\n"
+    "       ... --coordinator <host:port> --num-processes <N> --process-id <0..N-1>"
+)
+
+
+class NonFiniteError(RuntimeError):
+    """Training produced NaN/inf; the message names seed, step and quantity."""
+
+
+@dataclass
+class RunResult:
+    """What a finished (or resumed) run produced, for callers and tests."""
+
+    run_dir: str
+    evaluations: np.ndarray  # [n_evals, seeds, episodes]
+    final_actor: dict  # actor params, leading lane axis: sweep points × seeds (numpy)
+    states: object  # final TrainState (device arrays)
+    chunk_fn: object  # the jitted chunk (inspect ``_cache_size()``)
+    eval_fn: object
+    timing: dict
+
+
+# ------------------------------------------------------------------------------------------------
+# the run
+# ------------------------------------------------------------------------------------------------
+
+def run(cfg: Config, run_dir: str, resume: bool = False, log: Callable[[str], None] = print,
+        status: Callable[[str], None] | None = None) -> RunResult:
+    """Train all seeds of ``cfg`` writing into ``run_dir`` (created); continue from the newest
+    checkpoint there when ``resume``. Raises NonFiniteError on NaN/inf (no checkpoint written).
+    ``log`` gets one line per evaluation chunk; ``status`` (if given) what happens before and
+    between them (building, compiling, in-chunk progress), each with the elapsed time.
+
+    Sets ``jax_enable_x64`` for the run (float64 iff ``precision=float64``) and restores the
+    previous value when it returns, so in-process callers (tests) keep their own setting.
+
+    In a process whose JAX has not started yet, asks for ``host_devices`` host CPU devices, or with
+    ``lane_groups=true`` for one per core (``programs.auto_host_devices``)."""
+    host_devices = cfg.host_devices or auto_host_devices(cfg)
+    if host_devices and not backends_started():
+        set_host_devices(host_devices)  # read when JAX starts its backends (importing it does not)
+    if cfg.compilation_cache:
+        use_compilation_cache()
+    previous_x64 = bool(jax.config.jax_enable_x64)
+    t_start = time.time()
+    stamped = (lambda m: status(f"[{_fmt_time(time.time() - t_start)}] {m}")) if status else (lambda m: None)
+    # every line goes through the heartbeat, which prints one itself after PROGRESS_EVERY_S of silence
+    # (its thread looks once a second: speaking after 29 s of silence keeps lines <= 30 s apart)
+    beat = Heartbeat(stamped, PROGRESS_EVERY_S - 1.0 if status else 0.0)
+    physics_why = physics_backend(cfg)[1]
+    cfg = with_physics_backend(cfg)  # env.backend=auto chosen now; config.yaml records the choice
+    try:
+        # traced (compiled) under the matmul precision; ``closing`` closes the run's open files
+        with jax.default_matmul_precision(cfg.matmul_precision), contextlib.ExitStack() as closing, beat:
+            return _run(cfg, run_dir, resume, lambda line: beat.say(line, out=log), beat, closing, physics_why)
+    finally:
+        jax.config.update("jax_enable_x64", previous_x64)
+
+
+def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
+         say: Heartbeat, closing: contextlib.ExitStack, physics_why: str = "") -> RunResult:
+    """The training loop: build the program, start (from the newest checkpoint when resuming),
+    then per chunk of ``eval_freq`` steps: train, stop on NaN/inf, evaluate, log, checkpoint,
+    write the evaluations and ``log`` a progress line; finally the final policy and timing."""
+    clock = _Clock(time.time())
+    say(f"building {cfg.env.id} ({cfg.env.backend} physics: {physics_why}; {cfg.precision}) and the TD3 program for "
+        f"{num_lanes(cfg)} lanes; {matmul_dtype(cfg)[1]}")
+    sharding, groups = placement(cfg, log)
+    prog = programs(cfg, sharding)
+    native = prog.env.native_physics
+    if native is not None:
+        say(f"native physics: MuJoCo C through {'an XLA FFI call' if native.call == 'ffi' else 'Python callbacks'} "
+            f"({native.call_reason})")
+    lanes = program_lanes(cfg, prog, sharding, groups)
+    grouped = grouped_chunks(cfg, prog, groups)
+    folder = outputs.RunFolder(cfg, run_dir, lanes.seed_ids, writes=distributed.is_writer())
+    folder.create(fresh=not resume)
+    ckpt = Checkpointer(os.path.join(run_dir, "checkpoints"), keep=cfg.keep_checkpoints)
+    store = ReplayStore(os.path.join(run_dir, "checkpoints", REPLAY_DIR), cfg.replay_size)
+    evals = _Evaluations(cfg, prog, lanes)
+    restored = ckpt.latest_step() if resume else None  # continue after the newest checkpoint, if any
+    if restored is not None:
+        states = _restore(ckpt, store, restored, prog, lanes, evals)
+        log(f"resumed {run_dir} at step {restored}")
+    folder.start_logs(restored, closing)  # cut after that checkpoint, or (none) started afresh
+    if folder.writes:
+        provenance.record(run_dir, restored or 0)  # code, packages, CPU and command of this stretch
+    if restored is None:
+        states = _initial_states(cfg, prog, lanes, folder, evals, say)
+        if resume:
+            log(f"no checkpoint in {run_dir}; starting from step 0")
+    start = 0 if restored is None else restored // cfg.eval_freq
+    folder.evaluations(evals.returns, start + 1)
+    n_chunks = cfg.total_steps // cfg.eval_freq
+    # with lane groups, training goes on from the parts; ``states`` is their joined copy after each chunk
+    parts = grouped.split(states, lanes.sweep_args) if grouped is not None and start < n_chunks else None
+    for c in range(start, n_chunks):
+        t0 = time.time()
+        if c == start:
+            say(f"compiling the training program and running its first {cfg.eval_freq} steps "
+                f"(compiles take seconds to minutes on a CPU; cached for the next run)")
+        if grouped is None:
+            states, metrics = train_chunk(cfg, prog.chunk_fn, states, c, lanes.sweep_args, lanes.sharding, say,
+                                          beat=say)
+        else:
+            states = None  # the previous chunk's copy goes before the next is made
+            parts, metrics = train_chunk(cfg, prog.chunk_fn, parts, c, lanes.sweep_args, lanes.sharding, say,
+                                         grouped, beat=say)
+            states = grouped.join(parts)
+        bad = to_host(states.bad_step)  # waits for the chunk
+        dt = clock.trained(time.time() - t0, cfg.eval_freq)
+        step = (c + 1) * cfg.eval_freq
+        _stop_if_non_finite(cfg, folder.points, bad[: folder.real_lanes], ckpt, run_dir)
+        say.doing(f"evaluating at step {step} ({cfg.eval_episodes} episodes per lane)")
+        folder.evaluation(c + 1, evals.run(states, c + 1), states.agent)
+        folder.chunk(step, metrics, to_host(states.episodes), to_host(states.last_return))
+        say.doing(f"writing the checkpoint at step {step}")
+        _save(ckpt, store, step, cfg.eval_freq, states, evals)
+        folder.evaluations(evals.returns, c + 2)
+        clock.iteration_done(time.time() - t0, learning=step > cfg.learning_starts, first=c == start)
+        log(_progress_line(cfg, folder.points, step, evals.returns[c + 1, : folder.real_lanes], dt, c == start,
+                           clock.elapsed(), clock.eta(*_chunks_left(cfg, c + 1)), metrics,
+                           prog.agent.matmul_dtype is not None))
+    final_actor = outputs.flat_params(jax.tree.map(lambda x: x[: folder.real_lanes], to_host(states.agent.actor)))
+    folder.final_policy(final_actor)
+    timing = _timing(cfg, prog, lanes, evals, clock, start if resume else None, grouped)
+    folder.timing(timing)
+    ckpt.close()
+    return RunResult(run_dir, evals.returns[:, : folder.real_lanes], final_actor, states, prog.chunk_fn,
+                     prog.eval_fn, timing)
+
+
+def _without_replay(states):
+    """``states`` with the replay buffer's arrays replaced by zero-size ones (not checkpointed by
+    orbax: swim_jax/io/replay_store.py keeps them); works on arrays and ShapeDtypeStructs."""
+    empty = jax.tree.map(lambda a: np.zeros((0,), a.dtype), states.buffer.data)
+    return states._replace(buffer=states.buffer._replace(data=empty))
+
+
+def _save(ckpt: Checkpointer, store: ReplayStore, step: int, eval_freq: int, states, evals: _Evaluations) -> None:
+    """Checkpoint ``step``: the chunk's new transitions appended to the replay store (each written
+    once), then the rest of the training state and the evaluations as an orbax checkpoint, then
+    the segments no kept checkpoint needs deleted."""
+    n0, n1 = store.new_range(step - eval_freq, step)
+    slots = jnp.asarray(store.slots(n0, n1))
+    new = to_host(jax.tree.map(lambda a: a[:, slots], states.buffer.data))  # (a collective)
+    if distributed.is_writer():
+        store.append(n0, n1, new._asdict())
+    ckpt.save(step, (_without_replay(states), evals.saved()))
+    if distributed.is_writer():
+        store.prune(ckpt.all_steps())
+
+
+def _restore(ckpt: Checkpointer, store: ReplayStore, step: int, prog: Programs, lanes: Lanes, evals: _Evaluations):
+    """The training state of the checkpoint at ``step``; its evaluations go into ``evals``. The
+    replay buffer comes from the replay store, or, for a checkpoint written before it existed
+    (the whole buffer inside), from the checkpoint itself."""
+    full = jax.eval_shape(prog.init_fn, *lanes.init_args)
+    whole = ckpt.stored_keys(step) == Checkpointer.keys_of((full, evals.saved()))
+    template = ((full if whole else _without_replay(full)), evals.saved())
+    shardings = None
+    if lanes.sharding is not None:  # the lanes straight onto their devices; the evaluations whole on each
+        everywhere = jax.sharding.NamedSharding(lanes.sharding.mesh, jax.sharding.PartitionSpec())
+        shardings = (jax.tree.map(lambda _: lanes.sharding, template[0]), everywhere)
+    states, saved_evals = ckpt.restore(step, template, shardings)
+    evals.returns[:] = to_host(saved_evals)
+    if not whole:
+        like = {k: (a.shape, a.dtype) for k, a in full.buffer.data._asdict().items()}
+        host = store.rebuild(step, like)
+
+        def put(x):
+            if lanes.sharding is None:
+                return jnp.asarray(x)
+            return jax.make_array_from_callback(x.shape, lanes.sharding, lambda index: x[index])
+
+        data = type(full.buffer.data)(**{k: put(v) for k, v in host.items()})
+        states = states._replace(buffer=states.buffer._replace(data=data))
+    return place(states, lanes.sharding)
+
+
+def _initial_states(cfg: Config, prog: Programs, lanes: Lanes, folder: outputs.RunFolder,
+                    evals: _Evaluations, say: Callable[[str], None]):
+    """A fresh training state, its evaluation 0 computed and logged."""
+    states = place(prog.init_fn(*lanes.init_args), lanes.sharding)
+    say(f"compiling the evaluation program; evaluating the initial policies ({cfg.eval_episodes} episodes per lane)")
+    folder.evaluation(0, evals.run(states, 0), states.agent)
+    return states
+
+
+class _Evaluations:
+    """Every evaluation's returns ``[n_evals, lanes, episodes]`` (float64, nan until computed) and
+    the seconds spent computing them."""
+
+    def __init__(self, cfg: Config, prog: Programs, lanes: Lanes):
+        n_evals = cfg.total_steps // cfg.eval_freq + 1  # step 0 and after every chunk
+        self.returns = np.full((n_evals, lanes.count, cfg.eval_episodes), np.nan)
+        self.seconds = 0.0
+        self._eval_fn, self._sweep_args = prog.eval_fn, lanes.sweep_args
+        self._dtype = prog.agent.dtype
+
+    def run(self, states, j: int) -> np.ndarray:
+        """Evaluation ``j`` of ``states``' actors: its row of :attr:`returns`."""
+        t0 = time.time()
+        r = self._eval_fn(states.agent.actor, states.eval_key, jnp.asarray(j, jnp.int32), *self._sweep_args)
+        self.returns[j] = to_host(r)
+        self.seconds += time.time() - t0
+        return self.returns[j]
+
+    def saved(self) -> np.ndarray:
+        """:attr:`returns` as checkpointed: in the compute dtype (exact: every return was computed
+        in it), the same on every process."""
+        return self.returns.astype(self._dtype)
+
+
+@dataclass
+class _Clock:
+    """Wall-clock accounting of a run: the first chunk (with its compilation) apart from the others,
+    whose env steps give the throughput, and whole chunk iterations per phase (random warm-up,
+    learning) for the ETA."""
+
+    start: float
+    train_s: float = 0.0  # chunks after the first
+    steps_timed: int = 0  # their env steps per lane
+    first_chunk_s: float | None = None
+    walls: dict = field(default_factory=lambda: {False: [], True: []})  # iterations by phase (learning?)
+    first_wall: dict = field(default_factory=dict)  # phase -> the run's first iteration (with its compile)
+
+    def trained(self, dt: float, steps: int) -> float:
+        if self.first_chunk_s is None:
+            self.first_chunk_s = dt  # includes compilation
+        else:
+            self.train_s += dt
+            self.steps_timed += steps
+        return dt
+
+    def iteration_done(self, wall: float, learning: bool, first: bool = False) -> None:
+        """One chunk iteration (train + evaluation + checkpoint) of ``wall`` seconds in the
+        learning phase or the warm-up; the run's ``first`` (its compilation inside) is kept apart."""
+        if first:
+            self.first_wall[learning] = wall
+        else:
+            self.walls[learning].append(wall)
+
+    def elapsed(self) -> float:
+        return time.time() - self.start
+
+    def eta(self, warmup_left: int, learning_left: int) -> ETA:
+        """Seconds for the chunks left: each phase's at its recent iterations' mean (the learning
+        phase is several times slower per step than the warm-up); a lower bound (``ETA.known``
+        false) while learning chunks are left and none was timed yet."""
+        def typical(learning: bool) -> float | None:
+            w = self.walls[learning]
+            return float(np.mean(w[-3:])) if w else self.first_wall.get(learning)
+
+        warm, learn = typical(False), typical(True)
+        known = learn is not None or learning_left == 0
+        seconds = warmup_left * (warm or 0.0) + learning_left * (learn if learn is not None else (warm or 0.0))
+        return ETA(seconds, known)
+
+
+@dataclass(frozen=True)
+class ETA:
+    """Seconds left; ``known`` false: a lower bound (the learning phase is not timed yet)."""
+
+    seconds: float
+    known: bool = True
+
+    def __str__(self) -> str:
+        return _fmt_time(self.seconds) if self.known else f">{_fmt_time(self.seconds)} (learning phase not timed yet)"
+
+
+def _chunks_left(cfg: Config, done: int) -> tuple[int, int]:
+    """(warm-up chunks, learning chunks) after the first ``done`` chunks; a chunk is learning when
+    any of its steps is (its end step > ``learning_starts``)."""
+    n = cfg.total_steps // cfg.eval_freq
+    warm = min(n, cfg.learning_starts // cfg.eval_freq)
+    return max(0, warm - done), n - max(done, warm)
+
+
+def _timing(cfg: Config, prog: Programs, lanes: Lanes, evals: _Evaluations, clock: _Clock,
+            resumed_from_chunk: int | None, grouped: GroupedChunks | None = None) -> dict:
+    """``timing.json``: wall time, throughput (aggregate and per lane), compile counts (with lane
+    groups, ``chunk_compiles`` counts their executables, all compiled before the first call)."""
+    P, S = len(cfgmod.sweep_points(cfg)), cfg.seeds
+    train_s = clock.train_s
+    return {
+        "wall_time_s": clock.elapsed(),
+        "train_time_s_excluding_first_chunk": train_s,
+        "first_chunk_s_including_compile": clock.first_chunk_s,
+        "eval_time_s": evals.seconds,
+        "env_steps_per_s": (clock.steps_timed * P * S / train_s) if train_s > 0 else None,
+        "env_steps_per_s_per_seed": (clock.steps_timed / train_s) if train_s > 0 else None,
+        "seeds": S,
+        "sweep_points": P,
+        "lanes": lanes.count,
+        "total_steps": cfg.total_steps,
+        "resumed_from_chunk": resumed_from_chunk,
+        "chunk_compiles": prog.chunk_fn._cache_size() + (grouped.executables if grouped else 0),
+        "eval_compiles": prog.eval_fn._cache_size(),
+        "platform": jax.devices()[0].platform,
+        "devices": (jax.device_count() if lanes.sharding is not None
+                    else len(lanes.groups.devices) if lanes.groups is not None else 1),
+        "lane_groups": lanes.groups.describe() if lanes.groups is not None else None,
+        "processes": jax.process_count(),
+        "matmul_dtype": jnp.dtype(prog.agent.matmul_dtype or prog.agent.dtype).name,
+        "native_call": prog.env.native_physics.call if prog.env.native_physics is not None else None,
+    }
+
+
+def _stop_if_non_finite(cfg: Config, points, bad_step: np.ndarray, ckpt: Checkpointer, run_dir: str) -> None:
+    """Raise :class:`NonFiniteError` naming the earliest NaN/inf in ``bad_step[real lanes, CHECKED]``."""
+    hit = _first_bad(bad_step)
+    if hit is None:
+        return
+    lane, st, q = hit
+    where = f"seed {cfg.first_seed + lane % cfg.seeds}"
+    if cfg.sweep:
+        where += f" of sweep point {cfgmod.point_label(points[lane // cfg.seeds])}"
+    last = ckpt.latest_step()
+    raise NonFiniteError(
+        f"non-finite {q} in {where} at step {st}; stopped "
+        f"(last good checkpoint: {'none' if last is None else f'step {last}'} in {run_dir}/checkpoints)"
+    )
+
+
+def _first_bad(bad_step: np.ndarray):
+    """(seed position, step, quantity) of the earliest non-finite event, or None."""
+    bad = np.where(bad_step < 0, np.iinfo(np.int64).max, bad_step.astype(np.int64))
+    if bad.min() == np.iinfo(np.int64).max:
+        return None
+    s, q = np.unravel_index(np.argmin(bad), bad.shape)
+    return int(s), int(bad[s, q]), CHECKED[q]
+
+
+PROGRESS_EVERY_S = 30.0
+
+
+def train_chunk(cfg: Config, chunk_fn, states, c: int, sweep_args, sharding, say,
+                grouped: GroupedChunks | None = None, beat: Heartbeat | None = None):
+    """Chunk ``c`` (``eval_freq`` steps) as calls of ``steps_per_call(cfg)`` steps each.
+    Re-placing keeps the input sharding identical every call (no recompilation).
+    With ``beat`` (the run's :class:`~swim_jax.run.heartbeat.Heartbeat`) each call is waited for and
+    named as the run's activity, and after a call, once ``PROGRESS_EVERY_S`` seconds passed since
+    the run's last line, ``say`` gets the step, env-steps/s and the time to the chunk's evaluation
+    (the heartbeat speaks while a call runs longer than that).
+    With ``grouped`` (swim_jax/placement/lane_groups.py) ``states`` are its :class:`~swim_jax.placement.lane_groups.Parts`
+    (so is what it returns) and every call runs as the lane groups' programs (``chunk_fn``,
+    ``sweep_args`` and ``sharding`` unused: the parts hold their arguments).
+    Returns (states, the chunk's per-lane learning metrics, ``learning_log.combine``)."""
+    per_call = cfgmod.steps_per_call(cfg)
+    calls = cfg.eval_freq // per_call
+    t0 = time.time()
+    metrics = []
+    so_far = ""
+    for j in range(calls):
+        t = c * cfg.eval_freq + j * per_call
+        if beat is not None:
+            beat.doing(f"training steps {t}-{t + per_call} of {cfg.total_steps}{so_far}")
+        if grouped is None:
+            states, m = chunk_fn(states, jnp.asarray(t, jnp.int32), *sweep_args)
+            states = place(states, sharding)
+        else:
+            states, m = grouped.step(states, t)
+        metrics.append(m)
+        if beat is None or j + 1 == calls:
+            continue
+        # wait for the call (cheap: a few ints), so the step and the rate are the real ones
+        states.ready() if grouped is not None else jax.block_until_ready(states.bad_step)
+        done = (j + 1) * per_call
+        rate = done / (time.time() - t0)
+        progress = (f"{rate * real_lanes(cfg):.0f} env-steps/s in this chunk, "
+                    f"evaluation in {_fmt_time((cfg.eval_freq - done) / rate)}")
+        so_far = f" ({progress} at step {t + per_call})"  # what a heartbeat line during the next call says
+        if time.monotonic() - beat.last_line >= PROGRESS_EVERY_S:
+            say(f"step {t + per_call}/{cfg.total_steps}: {progress}")
+    if grouped is not None:
+        metrics = [grouped.join_metrics(to_host(m), _merge_pieces) for m in metrics]
+    return states, learning_log.combine(to_host(metrics))
+
+
+def _merge_pieces(pieces: list) -> ChunkMetrics:
+    """The metrics of one call made of consecutive ``pieces`` (host :class:`ChunkMetrics`)."""
+    return ChunkMetrics(**learning_log.combine(pieces))
+
+
+def _progress_line(cfg: Config, points, step: int, ev: np.ndarray, dt: float, first: bool,
+                   elapsed: float, eta: ETA | float, chunk_metrics: dict | None = None, bf16: bool = False) -> str:
+    """One line per chunk: step, throughput (", bf16 matmuls" when ``bf16``), eval mean ± std over
+    seeds (per point for sweeps), and, once updates run, the chunk's critic loss and Q₁ averaged
+    over the lanes."""
+    S, P = cfg.seeds, len(points)
+    means = ev.mean(axis=1)  # [P·S] each lane's mean episode return
+    rate = cfg.eval_freq * P * S / dt
+    unit = "lane" if cfg.sweep else "seed"
+    over = f"{P} points × {S} seeds" if cfg.sweep else f"{S} seeds"
+    line = (f"step {step:>8d}/{cfg.total_steps} | {rate:8.0f} env-steps/s ({rate / (P * S):.0f}/{unit}"
+            f"{', incl. compile' if first else ''}{', bf16 matmuls' if bf16 else ''}) | eval {means.mean():9.2f} ± {means.std():7.2f} over {over}")
+    if cfg.sweep and P <= 8:
+        point_means = means.reshape(P, S).mean(axis=1)
+        line += " [" + ", ".join(f"{cfgmod.point_label(pt)}: {m:.0f}" for pt, m in zip(points, point_means)) + "]"
+    if chunk_metrics is not None and np.any(chunk_metrics["updates"][: P * S] > 0):
+        line += (f" | critic loss {np.nanmean(chunk_metrics['critic_loss'][: P * S]):.3g}"
+                 f", Q {np.nanmean(chunk_metrics['q_mean'][: P * S]):.3g}")
+    return line + f" | elapsed {_fmt_time(elapsed)} | ETA {eta if isinstance(eta, ETA) else _fmt_time(eta)}"
+
+
+_fmt_time = fmt_duration  # h:mm:ss, "?" when not finite (swim_jax/run/heartbeat.py)
+
+
+# ------------------------------------------------------------------------------------------------
+# command line
+# ------------------------------------------------------------------------------------------------
+
+def parse_args(argv: list[str]) -> tuple[Config, str | None]:
+    """(config, resume dir or None) from the command line; ConfigError on any problem."""
+    config_name, resume, overrides = None, None, []
+    it = iter(argv)
+    for tok in it:
+        if tok in ("-h", "--help"):  # usage on stdout, exit status 0, as argparse does
+            print(USAGE)
+            raise SystemExit(0)
+        if tok == "--resume":
+            resume = next(it, None)
+            if resume is None:
+                raise ConfigError("--resume needs a run directory")
+        elif tok.startswith("--resume="):
+            resume = tok.split("=", 1)[1]
+        elif tok.startswith("config="):
+            config_name = tok.split("=", 1)[1]
+        elif tok.startswith("resume="):
+            resume = tok.split("=", 1)[1]
+        elif tok.startswith("-") or "=" not in tok:
+            raise ConfigError(f"unexpected argument {tok!r}; expected config=<name>, key=value or --resume <dir>")
+        else:
+            overrides.append(tok)
+    if resume is not None:
+        if config_name is not None or overrides:
+            raise ConfigError("--resume takes no config= or overrides (the run's config.yaml is used)")
+        path = os.path.join(resume, "config.yaml")
+        if not os.path.isfile(path):
+            raise ConfigError(f"cannot resume: {path} not found")
+        with open(path) as f:
+            cfg = cfgmod.from_dict(Config, yaml.safe_load(f) or {})
+        return cfgmod.validate(cfg), resume
+    if config_name is None:
+        raise ConfigError(f"missing config=<name>; valid configs: {', '.join(cfgmod.available_configs())}")
+    return cfgmod.resolve(config_name, overrides), None
+
+
+def main(argv: list[str] | None = None, require_sweep: bool = False) -> int:
+    """The command line of ``swim_jax.run.train`` (and, with ``require_sweep``, of ``swim_jax.sweep``);
+    with several processes (swim_jax/placement/distributed.py) every process runs it, process 0 prints."""
+    command = sys.argv[1:] if argv is None else argv
+    try:
+        flags, argv = distributed.pop_flags(command)
+        launch = distributed.launch_from(flags)
+        cfg, resume = parse_args(argv)
+        if require_sweep and not cfg.sweep:
+            raise ConfigError("no sweep axis given; add e.g. sweep.agent.activation.k=[0.25,0.5,1,2] "
+                              f"(sweepable keys: {', '.join(cfgmod.sweepable_keys(cfg))})")
+        spawn = cfg.local_processes > 1 and not launch.multi  # (the spawned processes are launch.multi)
+        if spawn:
+            local_processes.check(cfg, num_lanes(cfg))
+    except ConfigError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    if spawn:
+        return local_processes.spawn("swim_jax.sweep" if require_sweep else "swim_jax.train", command,
+                                     cfg.local_processes)
+    host_devices = cfg.host_devices or (0 if launch.multi else auto_host_devices(cfg))
+    if host_devices and not backends_started():
+        set_host_devices(host_devices)  # before the backends start (joining the processes starts them)
+    try:
+        distributed.start(launch)
+    except RuntimeError as e:
+        print(f"error: {e}", file=sys.stderr, flush=True)
+        return distributed.EXIT_LOST_PROCESS
+    run_dir = resume if resume else distributed.broadcast_text(outputs.new_run_dir(cfg))
+    say = (lambda s: print(s, flush=True)) if distributed.is_writer() else (lambda s: None)
+    say(f"run dir: {run_dir}")
+    if launch.multi and not distributed.is_writer():
+        print(f"process {launch.index} of {launch.count} ({launch.source}): stepping its lanes; "
+              f"process 0 prints the progress and writes {run_dir}", flush=True)
+    try:
+        res = run(cfg, run_dir, resume=resume is not None, log=say, status=say)
+    except NonFiniteError as e:
+        print(f"error: {e}", file=sys.stderr, flush=True)
+        return 3
+    except ConfigError as e:  # what needs the devices to check (lanes over several processes)
+        print(f"error: {e}", file=sys.stderr, flush=True)
+        return 2
+    except Exception as e:  # noqa: BLE001 - a lost process, or this one failing: stop them all
+        if launch.multi:
+            distributed.stop(e, run_dir, latest_complete_step(os.path.join(run_dir, "checkpoints")))
+        raise
+    t = res.timing
+    rate = t["env_steps_per_s"]
+    say(f"done in {_fmt_time(t['wall_time_s'])}; "
+        f"{'%.0f' % rate if rate else '?'} env-steps/s over {t['lanes'] if cfg.sweep else cfg.seeds} "
+        f"{'lanes (points × seeds)' if cfg.sweep else 'seeds'}; outputs in {run_dir}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
