@@ -204,11 +204,11 @@ def make_swim(
 
 
 def rsqrt_default(v: Array) -> Array:
-    """The inverse square root Swim uses by default, chosen by measurement (docs/BENCHMARKS.md).
+    """The inverse square root Swim uses by default, chosen by measurement (docs/PERFORMANCE.md: rsqrt-newton2).
 
     float32 (and float16/bfloat16, computed in float32): the bit-level guess + 2 Newton steps,
-    max relative error 7.5e-7 over every float32 (``python -m swim_jax.bench rsqrt``), the fastest
-    variant within 1e-6. float64: ``lax.rsqrt`` (correctly rounded to ~1 ulp; the Newton variant
+    within 1e-6 relative error over every float32 (``python -m swim_jax.bench rsqrt``) and the
+    fastest variant that is. float64: ``lax.rsqrt`` (correctly rounded to ~1 ulp; the Newton variant
     needs 4 steps there and is no faster).
     """
     if v.dtype == jnp.float64:

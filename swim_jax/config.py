@@ -90,12 +90,12 @@ class Config:
     # true: on a CPU, in one process, the lanes are stepped as one group per core, each group its own
     # program on its own host CPU device, all running at once (swim_jax/placement/lane_groups.py); swim_jax.run.train
     # then asks for one host device per core (at most one per seed) unless host_devices is set.
-    # Measured 0.80x one program's step time for 5 lanes on 2 cores (docs/BENCHMARKS.md section 12).
+    # What it gains: docs/PERFORMANCE.md: lane-groups-vs-one-program.
     # Not where it cannot apply (GPU, several processes, one seed: one program). false: one program
     lane_groups: bool = True
     # > 1: run as this many jax.distributed processes on this machine, each pinned to its share of
-    # the cores (swim_jax/placement/local_processes.py): each steps its own lanes with single-threaded products,
-    # measured 1.17-1.20x one process on 2 cores (docs/BENCHMARKS.md section 5). CPU; lanes must divide
+    # the cores (swim_jax/placement/local_processes.py): each steps its own lanes with single-threaded products
+    # (docs/PERFORMANCE.md: local-processes-vs-one-process). CPU; lanes must divide
     local_processes: int = 0
     # env steps per call of the compiled program; a progress line (env-steps/s, ETA) is printed
     # between calls at most every ~30 s. Must divide eval_freq (else one call per evaluation).
@@ -103,9 +103,8 @@ class Config:
     # JAX's persistent compilation cache in ~/.cache/swim-jax/xla ($XDG_CACHE_HOME respected), so a
     # second run of the same program starts in seconds; false (or SWIM_JAX_NO_COMPILATION_CACHE=1) = off
     compilation_cache: bool = True
-    # XLA CPU's YNNPACK library fusions in the training program (XLA's default is on); off measured
-    # between 5 % faster and 3 % slower per training step on a 2-core Zen 4, i.e. within noise
-    # (docs/BENCHMARKS.md section 4). No effect on GPUs.
+    # XLA CPU's YNNPACK library fusions in the training program (XLA's default is on); off for
+    # float32 (docs/PERFORMANCE.md: ynn-fusions-off), on for bfloat16 products. No effect on GPUs.
     xla_cpu_ynn_fusions: bool = False
     # also write metrics.csv's scalars and the evaluation returns as TensorBoard event files, one
     # run per seed: <run>/tensorboard/seed_<i>/ (swim_jax/io/tensorboard_log.py); needs tensorboardX,

@@ -261,7 +261,8 @@ def test_dense_derivatives_are_the_float64_products_computed_as_plain_products(x
     """A Dense layer's derivatives through :func:`dense_dot_general` (the network dtype, here
     float64) are dL/dx = g·Wᵀ, dL/dW = xᵀ·g, dL/db = Σ g to 1e-12 of numpy's float64 products, on a
     2-D batch, a single row (acting) and under vmap (lanes); and in the compiled program no product
-    contracts the kernel's output axis (the "g·Wᵀ" form XLA's CPU dot runs ~20 % slower): every dot
+    contracts the kernel's output axis (the "g·Wᵀ" form XLA's CPU dot runs slower, docs/PERFORMANCE.md:
+    dense-transposed-kernel): every dot
     contracts its right operand's first non-batch axis."""
     import re
 

@@ -1,7 +1,7 @@
 """The small tools under tools/: tools/compare_runs.py on synthetic run folders with known curves
 (expectations by hand, Welch's p against scipy's own test), tools/bench_peers.py's ``--ours`` row
 selection (command line, bad input, row mapping; the benchmark itself runs the peers for minutes with
-a second Python that has torch and is run by hand, docs/BENCHMARKS.md), and the bad-input line of
+a second Python that has torch and is run by hand, docs/PERFORMANCE.md: td3-vs-peers), and the bad-input line of
 tools/f32_input_floor.py."""
 
 import os

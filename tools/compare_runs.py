@@ -3,9 +3,9 @@ difference B - A (bootstrap CI, Welch p).
 
     python tools/compare_runs.py RUN_A RUN_B
 
-Used for the learning checks of docs/BENCHMARKS.md (§4: the same TD3 config trained on MJX (A) and on
-MuJoCo C (B) must land inside each other's confidence intervals; §6: float32 against bfloat16
-products). The runs may differ in anything but the env and the evaluation grid (``eval_freq`` and
+Used for the learning checks of the benchmark notebook (docs/notebook/BENCHMARKS-2026-11-22-to-12-04.md
+§4: the same TD3 config trained on MJX (A) and on MuJoCo C (B) must land inside each other's
+confidence intervals; §6: float32 against bfloat16 products, docs/PERFORMANCE.md: bf16-learning-parity). The runs may differ in anything but the env and the evaluation grid (``eval_freq`` and
 the number of evaluations), which both scores need to be comparable. A folder that is missing,
 corrupt, or incomparable with the other: one line on stderr naming it, exit status 2.
 """

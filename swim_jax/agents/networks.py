@@ -65,16 +65,16 @@ def dense_dot_general(lhs, rhs, dimension_numbers, precision=None, preferred_ele
 
     Without ``accumulate`` (products in the network dtype), dx is a plain product with an explicitly
     transposed kernel, g·(Wᵀ): XLA folds a transpose into the dot as an "NT" product, which its CPU
-    (Eigen) kernel runs ~20 % slower than the plain "NN" form, while Wᵀ is a kernel-sized copy
-    (docs/BENCHMARKS.md §9). dW stays the folded xᵀ·g: there the copy would be batch-sized and
-    costs more than it saves.
+    (Eigen) kernel runs slower than the plain "NN" form, while Wᵀ is a kernel-sized copy
+    (docs/PERFORMANCE.md: dense-transposed-kernel). dW stays the folded xᵀ·g: there the copy would
+    be batch-sized and costs more than it saves.
 
     ``accumulate`` (float32) with low-precision ``x`` and ``W`` (bfloat16): products summed in
     ``accumulate``, output in ``accumulate``; the derivatives are low-precision products too (as
     PyTorch's autocast computes them): the output cotangent g is rounded to the operands' type, dx
     and dW are summed in ``accumulate`` and returned in the operands' type. dx is the folded g·Wᵀ
-    (a bf16 Wᵀ copy made the TD3 step ~9 % slower, §9) and dW is xᵀ·g on an explicitly transposed
-    x (XLA's CPU backend has no bf16 kernel for the folded form outside its YNNPACK fusions).
+    (a bf16 Wᵀ copy made the TD3 step slower, same figure) and dW is xᵀ·g on an explicitly
+    transposed x (XLA's CPU backend has no bf16 kernel for the folded form outside its YNNPACK fusions).
     ``precision`` and ``preferred_element_type`` from flax are ignored: the product is in the
     operands' type, or summed in ``accumulate``."""
     dense = (((lhs.ndim - 1,), (0,)), ((), ()))
@@ -212,9 +212,9 @@ class TwinCritic(nn.Module):
     With products in the network dtype each critic is handed its own (broadcast) copy of
     ``(obs, action)``: with one shared input XLA merges the critics' first layers into one wider
     product whose output and derivative it must then transpose into per-critic order; with a copy
-    each, the layers stay one batched product (the same values up to float rounding; 0.5–4 % less
-    time per TD3 step on a CPU, docs/BENCHMARKS.md §9). With bfloat16 products (``matmul_dtype``) the shared input is the
-    faster form (by ~8 %, §9) and is kept."""
+    each, the layers stay one batched product (the same values up to float rounding; less time per
+    TD3 step on a CPU, docs/PERFORMANCE.md: critic-input-copies). With bfloat16 products
+    (``matmul_dtype``) the shared input is the faster form (same figure) and is kept."""
 
     options: NetworkOptions = NetworkOptions()
     num_critics: int = 2

@@ -1,8 +1,8 @@
 """Benchmarks: ``python -m swim_jax.bench SUBCOMMAND [options]`` (the list: ``COMMANDS``).
 
 Every benchmark compiles first, interleaves its candidates in one process, prints a table of
-medians (and min–max), and writes a JSON file under runs/bench/. See docs/BENCHMARKS.md for the
-figures measured on this project's machines and the commands that produced them.
+medians (and min–max), and writes a JSON file under runs/bench/. docs/PERFORMANCE.md holds the
+current figures behind the defaults, each with the command that produced it and how to measure.
 """
 
 from __future__ import annotations

@@ -33,9 +33,9 @@ from swim_jax.envs.terms import rounded, sum_of_squares, true_divide
 
 State = brax_base.State
 
-# Defaults chosen from the measured trade-off in docs/ENVS.md: 8 Newton iterations / 16 line-search
-# iterations changed nothing versus Gymnasium's 100 / 50 (MuJoCo C and MJX teacher-forced tests);
-# 4 / 8 moved qpos by up to 6e-4, 1-2 by up to 1.2.
+# Defaults chosen from the measured trade-off (docs/PERFORMANCE.md: solver-caps; docs/ENVS.md): 8
+# Newton iterations / 16 line-search iterations change nothing versus Gymnasium's 100 / 50 (MuJoCo C
+# and MJX teacher-forced tests); fewer move the trajectory.
 DEFAULT_SOLVER_ITERATIONS = 8
 DEFAULT_LS_ITERATIONS = 16
 DEFAULT_MAX_EPISODE_STEPS = 1000

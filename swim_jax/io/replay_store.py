@@ -4,8 +4,8 @@ Every lane inserts one transition per env step (swim_jax/agents/loop.py), transi
 env step it was taken at) into slot ``n mod capacity`` (swim_jax/agents/replay.py). A checkpoint at step
 ``S`` therefore needs, besides its small state (networks, optimisers, env states, keys: the orbax
 checkpoint), the transitions ``max(0, S - capacity) <= n < S``. Instead of rewriting the whole
-buffer with every checkpoint (its cost growing with the buffer: ~0.7 GB at 1M steps), each chunk's
-new transitions are appended as one segment file
+buffer with every checkpoint (its cost growing with the buffer; docs/PERFORMANCE.md:
+checkpoint-cost-1M), each chunk's new transitions are appended as one segment file
 
     replay/<n0:010d>-<n1:010d>.npz     arrays obs, action, reward, next_obs, terminated, each
                                        [lanes, n1 - n0, ...] in the buffer's dtype (uncompressed)

@@ -27,8 +27,7 @@ so C's rule alone ran nearly every search to its cap (``ls_iterations``) on step
 changing nothing. A slope smaller than 8 ulps of the magnitude of its terms counts as zero (the
 same idea as MJX's own acceptance tolerance, ``8 eps |slope terms|``). In float64 that floor lies
 far below C's tolerance, which then decides as before (the float64 equivalence tests, 1e-8, are
-the proof); in float32 it cuts the MJX step at 5-10 lanes to 0.66-0.82x of its time
-(docs/BENCHMARKS.md §13).
+the proof); in float32 it shortens the MJX step (docs/PERFORMANCE.md: mjx-slope-floor).
 The solve also records its Newton iteration count in ``d._impl.solver_niter``, as MuJoCo C does.
 Installed by :mod:`swim_jax.envs.physics.mjx_compat`.
 

@@ -98,9 +98,8 @@ class NativePhysics:
         # FFI handler steps its lanes serially and never needs it
         self.step_seconds = _time_one_step(mj_model, self.frame_skip) if self.call == "callback" else None
 
-    # MuJoCo's thread pool pays only for enough work per call: 5 lanes of HalfCheetah (0.15 ms of
-    # physics) ran 1.23x slower on 2 threads than on one, Swimmer (0.3 ms) 0.91x, Walker2d
-    # (0.5 ms) 0.90x (2-core Zen 4, docs/BENCHMARKS.md section 4)
+    # MuJoCo's thread pool pays only for enough work per call: HalfCheetah's 5 lanes ran slower on 2
+    # threads than on one, Swimmer's and Walker2d's faster (docs/PERFORMANCE.md: native-thread-pool)
     POOL_MIN_SECONDS = 0.2e-3
 
     # ---------------------------------------------------------------- host side (NumPy, MuJoCo C)

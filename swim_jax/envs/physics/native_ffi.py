@@ -1,8 +1,8 @@
 """The native backend's physics as XLA FFI calls (C++, swim_jax/envs/physics/native_ffi.cc) instead of Python callbacks.
 
-A ``jax.pure_callback`` step costs a Python round trip (~1 ms per training step on a 2-core Zen 4
-inside the training program, even with a trivial host function; docs/BENCHMARKS.md §7). The same
-step as an XLA FFI custom call runs MuJoCo C directly on XLA's thread.
+A ``jax.pure_callback`` step costs a Python round trip inside the training program, even with a
+trivial host function (docs/PERFORMANCE.md: native-ffi-vs-callback). The same step as an XLA FFI
+custom call runs MuJoCo C directly on XLA's thread.
 
 :func:`library` compiles swim_jax/envs/physics/native_ffi.cc once per (source, jaxlib, mujoco) into
 ``$XDG_CACHE_HOME/swim-jax/native`` (default ``~/.cache``; libraries not loaded for 30 days are
