@@ -73,7 +73,7 @@ class Config:
     keep_checkpoints: int = 3
     name: str = ""  # run name (defaults to the config file name)
     # seeds=1 runs a duplicate second lane so the seed is bit-identical to the same seed in a
-    # multi-seed run (see swim_jax.run.programs.num_lanes); false: half the work, float-rounding drift
+    # multi-seed run (see swim_jax.placement.layout.LaneLayout.of); false: half the work, float-rounding drift
     pad_single_seed: bool = True
     # float32 matmul precision (jax.default_matmul_precision): "highest" = true float32 everywhere;
     # "default" lets NVIDIA GPUs use TF32 (~1e-3 relative; faster for big matmuls, not comparable with CPU)

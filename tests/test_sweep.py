@@ -20,6 +20,7 @@ import pytest
 from swim_jax.agents.replay import Transition
 from swim_jax.agents.td3 import TD3, ActivationConfig, TD3Config
 from swim_jax import config as cfgmod
+from swim_jax.placement.layout import LaneLayout
 from swim_jax.run import learned_params, outputs, programs, train
 from swim_jax.analysis import report, runs_io
 from swim_jax import sweep
@@ -47,7 +48,14 @@ def test_sweep_grid_points_and_point_configs():
     np.testing.assert_array_equal(seed_ids, [0, 1] * 6)
     np.testing.assert_allclose(hp["activation.k"], np.repeat([0.25, 0.25, 0.5, 0.5, 1, 1], 2))
     np.testing.assert_allclose(hp["tau"], np.repeat([0.005, 0.01] * 3, 2), rtol=1e-7)
-    assert programs.num_lanes(dataclasses.replace(cfg, seeds=2)) == 12
+    layout = LaneLayout.of(dataclasses.replace(cfg, seeds=2, first_seed=3))
+    assert layout.count == layout.real == 12 and layout.swept
+    assert layout.point_lanes()[1] == slice(2, 4) and layout.where(3) == "seed 4 of sweep point k=0.25,tau=0.01"
+    np.testing.assert_array_equal(layout.point_means(np.arange(12.0)), np.arange(6) * 2 + 0.5)
+    one = LaneLayout.of(cfgmod.resolve("hopper_swim", ["seeds=1", "first_seed=7"]))  # padded to two lanes
+    assert (one.count, one.real, one.swept, one.where(0)) == (2, 1, False, "seed 7")
+    np.testing.assert_array_equal(one.seed_ids(), [7, 7])
+    assert LaneLayout.of(cfgmod.resolve("hopper_swim", ["seeds=1", "pad_single_seed=false"])).count == 1
     # the sweep round-trips through config.yaml
     assert cfgmod.from_dict(cfgmod.Config, __import__("yaml").safe_load(cfgmod.dump(cfg))) == cfg
     assert cfgmod.sweep_points(cfgmod.resolve("hopper_swim", [])) == [{}]

@@ -28,7 +28,7 @@ from swim_jax import config as cfgmod
 from swim_jax.io import learning_log, tensorboard_log
 from swim_jax.analysis import report
 from swim_jax.run import train
-from swim_jax.run.programs import matmul_dtype, programs, with_physics_backend
+from swim_jax.run.programs import lanes, matmul_dtype, programs, with_physics_backend
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TINY = [
@@ -114,6 +114,19 @@ def test_no_recompilation_after_first_chunk(vmapped):
     assert vmapped.chunk_fn._cache_size() == 1
     assert vmapped.eval_fn._cache_size() == 1
     assert vmapped.timing["chunk_compiles"] == 1
+
+
+def test_the_initial_evaluation_beside_the_first_chunk_is_the_initial_policies(vmapped):
+    """Evaluation 0 runs on a thread of its own beside the first chunk (which donates the state):
+    its returns are the initial actors' evaluated on their own, bit for bit, and both compiled
+    programs are the run's (nothing extra compiled)."""
+    cfg = with_physics_backend(tiny(*VMAPPED))
+    prog = programs(cfg)
+    ln = lanes(cfg, prog, None)
+    init = prog.init_fn(*ln.init_args)
+    alone = np.asarray(prog.eval_fn(init.agent.actor, init.eval_key, jnp.asarray(0, jnp.int32)))
+    np.testing.assert_array_equal(vmapped.evaluations[0], alone)
+    assert prog.eval_fn is vmapped.eval_fn and vmapped.eval_fn._cache_size() == 1
 
 
 def test_a_chunk_split_into_calls_with_progress_lines_changes_nothing(vmapped, tmp_path, monkeypatch):

@@ -56,10 +56,11 @@ def _du(path: str) -> int:
 def filled_state(cfg, fill: int, seed: int = 0):
     """``cfg``'s initial training state (its lanes) with the buffer's first ``fill`` slots
     standard-normal (terminated: 0/1) and its pointer and size as after ``fill`` insertions."""
-    from swim_jax.run.programs import num_lanes, programs
+    from swim_jax.placement.layout import LaneLayout
+    from swim_jax.run.programs import programs
 
     prog = programs(cfg)
-    lanes = num_lanes(cfg)
+    lanes = LaneLayout.of(cfg).count
     states = prog.init_fn(jnp.asarray(cfg.seed, jnp.uint32), jnp.arange(lanes, dtype=jnp.int32))
     rng = np.random.default_rng(seed)
     data = {}

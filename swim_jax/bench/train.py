@@ -189,28 +189,27 @@ def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overr
     bench = learning_phase_overrides(chunk_steps, overrides)
     variant_cfgs = {v: cfgmod.resolve(config, [*bench, *(v.split(",") if v else [])]) for v in ("", *variants)}
     candidates = _candidates(lanes, variant_cfgs, shard)
-    progs, states, compile_s, cfgs, grouped = {}, {}, {}, {}, {}
+    progs, states, compile_s, cfgs, steppers = {}, {}, {}, {}, {}
 
     def run_chunk(c, st, index):  # as the training loop runs it (calls of progress_steps steps)
-        st = train.train_chunk(cfgs[c], progs[c].chunk_fn, st, index, (), c[1], lambda _: None, grouped[c])[0]
-        # lane groups: training joins a whole-lane copy after every chunk (evaluation, checkpoint)
-        jax.block_until_ready(st if grouped[c] is None else grouped[c].join(st))
+        st = train.train_chunk(cfgs[c], steppers[c], st, index, lambda _: None)[0]
+        # training joins a whole-lane copy after every chunk (evaluation, checkpoint)
+        jax.block_until_ready(steppers[c].join(st))
         return st
 
     for c in candidates:
         L, sh, v, groups = c
         cfgs[c], progs[c], st = lanes_program(variant_cfgs[v], L, sh)
-        grouped[c] = programs.grouped_chunks(cfgs[c], progs[c], groups)
+        steppers[c] = programs.stepper(cfgs[c], progs[c], sh, groups)
         t0 = time.perf_counter()
-        if grouped[c] is not None:
-            st = grouped[c].split(st, ())  # compiles every group's program
+        st = steppers[c].split(st, ())  # with lane groups, compiles every group's program
         states[c] = run_chunk(c, st, 0)
         compile_s[c] = time.perf_counter() - t0
         how = " sharded" if sh else f" as {groups.describe()}" if groups else ""
         log(f"lanes {L}{how}{' ' + v if v else ''}: compiled + first chunk {compile_s[c]:.1f} s")
     # one jitted chunk serves every lane count and placement of a config (one executable each)
     def executables(c):  # compiled chunk executables of candidate c (its groups' are all made before chunk 0)
-        return progs[c].chunk_fn._cache_size() + (grouped[c].executables if grouped[c] else 0)
+        return steppers[c].executables
 
     warm_sizes = {c: executables(c) for c in candidates}
     times = {c: [] for c in candidates}

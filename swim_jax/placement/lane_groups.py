@@ -2,10 +2,10 @@
 
 XLA's CPU backend runs a program's operations one after another, each spread over every core. At
 TD3's sizes (256-wide products, elementwise passes over a few MB) that scales poorly: on 2 cores
-the products run 1.86× faster than on one, the rest 1.3× (docs/BENCHMARKS.md §8). Host CPU devices
+the products run much faster than on one, the rest barely (docs/PERFORMANCE.md: two-cores-vs-one). Host CPU devices
 (``XLA_FLAGS=--xla_force_host_platform_device_count=N``, one per core) run their programs at the
 same time, each on its own thread, so the lanes can be split into one group per device
-(docs/BENCHMARKS.md §11-12 for what it gains).
+(docs/PERFORMANCE.md: lane-groups-vs-one-program).
 
 The split (:func:`plan`), L lanes over D = min(L, devices) devices, q = L // D, r = L mod D:
 
@@ -112,7 +112,7 @@ def _specs(device):
 
 @jax.jit
 def _concatenate(parts: list):
-    """The parts' lanes in order, as one program (op-by-op concatenation costs ~0.3 s per chunk)."""
+    """The parts' lanes in order, as one program (op by op it costs more: docs/PERFORMANCE.md: lane-groups-join)."""
     return jax.tree.map(lambda *xs: jnp.concatenate(xs), *parts)
 
 
@@ -124,7 +124,8 @@ def _slices(bounds: tuple):
 class GroupedChunks:
     """Training calls ``fn(states, t, *args) -> (states, metrics)`` (every array with the lanes
     first; ``args``: per-lane arrays such as a sweep's values) run as the parts of ``groups``; a
-    leftover lane's call as ``piece_fn`` (the same program for 1/D of the steps) once per device."""
+    leftover lane's call as ``piece_fn`` (the same program for 1/D of the steps) once per device.
+    A stepper (swim_jax/placement/stepping.py), as :class:`~swim_jax.placement.stepping.OneProgram` is."""
 
     def __init__(self, groups: LaneGroups, fn: Callable, piece_fn: Callable, steps_per_call: int):
         self.groups = groups
@@ -135,8 +136,9 @@ class GroupedChunks:
 
     @property
     def executables(self) -> int:
-        """Compiled executables: each group's on its device, the piece program on every device."""
-        return len(self._compiled)
+        """Compiled executables: each group's on its device, the piece program on every device (and
+        any that calling ``fn`` itself compiled: none, when the groups alone call it)."""
+        return len(self._compiled) + self._fn._cache_size()
 
     def split(self, states, args: tuple) -> Parts:
         """``states`` (whole-lane) and ``args`` as :class:`Parts`, each on the device that runs it
@@ -177,6 +179,10 @@ class GroupedChunks:
             for j in range(len(self.groups.leftover)):
                 piece(j, k)
         return Parts(states, parts.args), metrics
+
+    def ready(self, parts: Parts) -> None:
+        """Wait until every part's last call has finished."""
+        parts.ready()
 
     def join(self, parts: Parts):
         """A whole-lane copy of ``parts``' states (lanes in order) on the first device."""

@@ -6,7 +6,7 @@ to the i-th of N equal shares of the cores this process may use, so each process
 lanes' products single-threaded on its own cores. Process 0's output is this command's output; the
 others print only errors. The exit status is the first non-zero one among the processes (by
 process id), else 0. Why: on a CPU, XLA's small matmuls gain little from a second thread, while
-separate processes on separate cores do not contend (docs/BENCHMARKS.md section 5).
+separate processes on separate cores do not contend (docs/PERFORMANCE.md: local-processes-vs-one-process).
 """
 
 from __future__ import annotations

@@ -23,6 +23,7 @@ from swim_jax.run import learned_params
 from swim_jax.io import learning_log, tensorboard_log
 from swim_jax.config import Config
 from swim_jax.placement.distributed import to_host
+from swim_jax.placement.layout import LaneLayout
 
 
 def new_run_dir(cfg: Config) -> str:
@@ -96,18 +97,18 @@ LOG_FILES = (learned_params.FILENAME, learning_log.FILENAME)  # appended to afte
 
 
 class RunFolder:
-    """The run folder of ``cfg`` at ``run_dir`` and its output folders: one per sweep point, lanes
-    ``p·seeds … (p+1)·seeds − 1`` (``seed_ids``: the seed of every lane) writing into point ``p``'s.
+    """The run folder of ``cfg`` at ``run_dir`` and its output folders: one per sweep point, the
+    point's lanes of ``layout`` (swim_jax/placement/layout.py) writing into point ``p``'s.
 
     With several processes every process calls every method (some gather lanes from the others) and
     only the one made with ``writes=True`` (process 0) writes files."""
 
-    def __init__(self, cfg: Config, run_dir: str, seed_ids: np.ndarray, writes: bool = True):
-        self.cfg, self.run_dir, self.seed_ids, self.writes = cfg, run_dir, seed_ids, writes
-        self.points = cfgmod.sweep_points(cfg)
-        self.real_lanes = len(self.points) * cfg.seeds  # the padded lane of a single-seed run left out
+    def __init__(self, cfg: Config, run_dir: str, layout: LaneLayout, writes: bool = True):
+        self.cfg, self.run_dir, self.layout, self.writes = cfg, run_dir, layout, writes
+        self.seed_ids = layout.seed_ids()
+        self.points = layout.points
         self.outputs = point_outputs(cfg, run_dir, self.points)  # (folder, plain config) per point
-        self.lanes = [slice(p * cfg.seeds, (p + 1) * cfg.seeds) for p in range(len(self.points))]
+        self.lanes = layout.point_lanes()
         self.tb = None  # a tensorboard_log.TensorBoardLog once start_logs opened it
 
     def create(self, fresh: bool) -> None:
@@ -183,7 +184,7 @@ class RunFolder:
         for lanes, (out_dir, point_cfg) in zip(self.lanes, self.outputs):
             write_evaluations(out_dir, point_cfg, evals[:, lanes], n_done)
         if self.cfg.sweep:
-            write_sweep_table(self.run_dir, self.cfg, self.points, evals[:n_done, : self.real_lanes])
+            write_sweep_table(self.run_dir, self.cfg, self.points, evals[:n_done, : self.layout.real])
 
     def final_policy(self, final_actor: dict[str, np.ndarray]) -> None:
         """``final_policy.npz`` of every output folder from the flat actor params of the real lanes."""

@@ -25,7 +25,8 @@ from swim_jax.agents import loop
 from swim_jax.agents.td3 import TD3
 from swim_jax import config as cfgmod
 from swim_jax.io import hardware
-from swim_jax.placement import lane_groups
+from swim_jax.placement import lane_groups, stepping
+from swim_jax.placement.layout import LaneLayout
 from swim_jax.config import Config
 from swim_jax.placement.sharding import lane_sharding, over_lanes, place
 
@@ -36,7 +37,7 @@ def _setup_precision(cfg: Config) -> None:
 
 def physics_backend(cfg: Config) -> tuple[str, str]:
     """(the physics backend ``cfg`` runs, why, in words for the start-up line). ``env.backend=auto``
-    is ``mujoco`` (MuJoCo C inside the jitted program, faster on a CPU: docs/BENCHMARKS.md) when
+    is ``mujoco`` (MuJoCo C inside the jitted program, faster on a CPU: docs/PERFORMANCE.md: native-vs-mjx-learning) when
     JAX's default backend is the CPU, else ``mjx``; asking for it starts JAX's backends."""
     if cfg.env.backend != "auto":
         return cfg.env.backend, f"env.backend={cfg.env.backend}"
@@ -81,7 +82,7 @@ def matmul_dtype(cfg: Config, cpu_flags: frozenset[str] | None = None) -> tuple[
     words for the start-up line. ``bfloat16``: always; ``full``: never; ``auto``: bfloat16 when the
     run is float32 on a CPU backend whose CPU has bfloat16 dot instructions (AVX-512 BF16 or AMX in
     ``cpu_flags``, default this machine's: ``swim_jax.io.hardware``), else the run's precision; auto's
-    choice rests on learning parity with float32 on HalfCheetah-v5 (docs/BENCHMARKS.md section 6)."""
+    choice rests on learning parity with float32 on HalfCheetah-v5 (docs/PERFORMANCE.md: bf16-learning-parity)."""
     if cfg.matmul_dtype == "bfloat16":
         return jnp.bfloat16, "bfloat16 matmuls (matmul_dtype=bfloat16)"
     flag = hardware.native_bf16(cpu_flags)
@@ -105,38 +106,12 @@ class Programs:
 _PROGRAMS: dict = {}
 
 
-def real_lanes(cfg: Config) -> int:
-    """The lanes that train a seed of a sweep point: sweep points × ``seeds`` (no padding lane)."""
-    return len(cfgmod.sweep_points(cfg)) * cfg.seeds
-
-
-def num_lanes(cfg: Config) -> int:
-    """Width of the vmapped lane axis: sweep points × ``seeds``, or 2 for a padded single-lane run.
-
-    Why pad: with a unit vmap axis XLA CPU simplifies the batched MJX physics differently, which
-    changes float rounding (~1e-5 after ~10 steps), so seed i alone would drift from seed i in a
-    multi-seed run. Lanes ≥ 2 compute each seed bit-identically at the same lane count per device
-    (tests/test_train.py); another lane count rounds the updates differently (XLA compiles the
-    batched bias-gradient reductions per shape; ~1e-8 after one update, docs/DISTRIBUTED.md)."""
-    real = real_lanes(cfg)
-    return 2 if real == 1 and cfg.pad_single_seed else real
-
-
 def lane_inputs(cfg: Config, dtype) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-    """(seed index per lane int32[L], sweep values per lane ``{agent path: [L]}``).
-
-    Lane ``p·seeds + s`` is seed ``first_seed + s`` of sweep point ``p`` (every point sees the
-    same seeds); a padded lane repeats lane 0. Paths drop the ``agent.`` prefix
+    """(seed index per lane int32[L], sweep values per lane ``{agent path: [L]}``) of ``cfg``'s
+    :class:`~swim_jax.placement.layout.LaneLayout`. Paths drop the ``agent.`` prefix
     (``activation.k``), as ``TD3.with_hparams`` takes them."""
-    lanes = num_lanes(cfg)
-    points = cfgmod.sweep_points(cfg)
-    seeds = np.arange(cfg.first_seed, cfg.first_seed + cfg.seeds)
-    seed_ids = np.resize(np.tile(seeds, len(points)), lanes).astype(np.int32)
-    hparams = {
-        key.split(".", 1)[1]: np.resize(np.repeat([p[key] for p in points], cfg.seeds), lanes).astype(dtype)
-        for key in cfg.sweep
-    }
-    return seed_ids, hparams
+    layout = LaneLayout.of(cfg)
+    return layout.seed_ids(), {key.split(".", 1)[1]: layout.per_lane(key, dtype) for key in cfg.sweep}
 
 
 def chunk_compiler_options(cfg: Config) -> dict:
@@ -180,12 +155,16 @@ def programs(cfg: Config, sharding=None) -> Programs:
 class Lanes:
     """The per-lane inputs of a run's programs, placed on the devices."""
 
-    count: int  # lanes ≥ sweep points × seeds (a padded single-lane run has 2)
-    seed_ids: np.ndarray  # int32[L]: the seed of every lane (host copy, for the run's files)
+    layout: LaneLayout  # which lane trains which seed of which sweep point
     init_args: tuple  # (base_seed, seed_ids[, hparams]): ``init_fn``'s arguments
     sweep_args: tuple  # (hparams,) with a sweep, () without: the extra argument of chunk_fn/eval_fn
     sharding: object  # the lane axis' sharding over devices, or None (one device)
     groups: lane_groups.LaneGroups | None = None  # one program per group of lanes (CPU), or None
+
+    @property
+    def count(self) -> int:
+        """The lane axis' width."""
+        return self.layout.count
 
 
 def auto_host_devices(cfg: Config) -> int:
@@ -197,7 +176,7 @@ def auto_host_devices(cfg: Config) -> int:
         return 0
     if "--xla_force_host_platform_device_count=" in os.environ.get("XLA_FLAGS", ""):
         return 0
-    n = min(len(os.sched_getaffinity(0)), real_lanes(cfg))
+    n = min(len(os.sched_getaffinity(0)), LaneLayout.of(cfg).real)
     return n if n >= 2 else 0
 
 
@@ -207,7 +186,7 @@ def groups_for(cfg: Config, count: int) -> tuple[lane_groups.LaneGroups | None, 
     backend, one process, at least two host devices and two real lanes (a padded single seed stays
     one program, so that it equals the same seed of a multi-seed run), and, with leftover lanes,
     steps per call that cut into one equal piece per device."""
-    if not cfg.lane_groups or jax.process_count() > 1 or jax.default_backend() != "cpu" or real_lanes(cfg) < 2:
+    if not cfg.lane_groups or jax.process_count() > 1 or jax.default_backend() != "cpu" or LaneLayout.of(cfg).real < 2:
         return None, ""
     try:
         return lane_groups.plan(count, jax.local_devices(), cfgmod.steps_per_call(cfg)), ""
@@ -215,12 +194,13 @@ def groups_for(cfg: Config, count: int) -> tuple[lane_groups.LaneGroups | None, 
         return None, f"{e}; set progress_steps (dividing eval_freq={cfg.eval_freq}) to such a multiple"
 
 
-def grouped_chunks(cfg: Config, prog: Programs, groups: lane_groups.LaneGroups | None):
-    """The :class:`~swim_jax.placement.lane_groups.GroupedChunks` stepping ``prog``'s chunk as ``groups``
-    (None without groups); a leftover lane's pieces run the same program built for 1/D of the
-    steps per call (D devices)."""
+def stepper(cfg: Config, prog: Programs, sharding, groups: lane_groups.LaneGroups | None):
+    """How ``prog``'s training calls run (swim_jax/placement/stepping.py), chosen once from
+    :func:`placement`'s ``(sharding, groups)``: as the lane ``groups`` (swim_jax/placement/lane_groups.py;
+    a leftover lane's pieces run the same program built for 1/D of the steps per call, D devices),
+    or as one program over every lane, placed by ``sharding``."""
     if groups is None:
-        return None
+        return stepping.OneProgram(prog.chunk_fn, sharding)
     per_call = cfgmod.steps_per_call(cfg)
     piece_steps = per_call // len(groups.devices)
     pieces = programs(dataclasses.replace(cfg, progress_steps=piece_steps)).chunk_fn if groups.leftover else None
@@ -236,7 +216,7 @@ def placement(cfg: Config, log: Callable[[str], None]):
     only the steps per call stand in the way) and a warning when ``host_devices`` asks for more
     than JAX started with. ConfigError when several processes run and the lanes cannot be split
     over all their devices."""
-    count = num_lanes(cfg)
+    count = LaneLayout.of(cfg).count
     if cfg.host_devices and jax.devices()[0].platform == "cpu" and jax.local_device_count() != cfg.host_devices:
         log(f"warning: host_devices={cfg.host_devices} but JAX started with {jax.local_device_count()} devices; "
             f"set XLA_FLAGS=--xla_force_host_platform_device_count={cfg.host_devices} before Python starts")
@@ -260,13 +240,13 @@ def placement(cfg: Config, log: Callable[[str], None]):
 
 def lanes(cfg: Config, prog: Programs, sharding, groups: lane_groups.LaneGroups | None = None) -> Lanes:
     """The lanes of ``cfg`` for ``prog`` (built for ``sharding``; both from :func:`placement`)."""
-    count = num_lanes(cfg)
+    layout = LaneLayout.of(cfg)
     seed_ids, hparams_np = lane_inputs(cfg, prog.agent.dtype)
     on_lanes = jnp.asarray if sharding is None else (lambda x: place(x, sharding))  # NumPy → device arrays
     hparams = {k: on_lanes(v) for k, v in hparams_np.items()}
     sweep_args = (hparams,) if hparams else ()  # no sweep: the functions' 2-/3-argument signatures
     init_args = (jnp.asarray(cfg.seed, jnp.uint32), on_lanes(seed_ids), *sweep_args)
-    return Lanes(count, seed_ids, init_args, sweep_args, sharding, groups)
+    return Lanes(layout, init_args, sweep_args, sharding, groups)
 
 
 def compilation_cache_dir() -> str:

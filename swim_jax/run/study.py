@@ -60,7 +60,7 @@ PLACEMENT_KEYS = frozenset({"out_dir", "keep_checkpoints", "shard_lanes", "host_
 LOCK_FILE = "study.lock"
 LOG_FILE = "train.log"
 # cells run at once when --parallel is not given: one cell on every core was measured fastest in the
-# learning phase on this project's 2-core machine (docs/BENCHMARKS.md, "cells at once")
+# learning phase on this project's 2-core machine (docs/PERFORMANCE.md: study-cells-at-once)
 DEFAULT_PARALLEL = 1
 
 
@@ -634,7 +634,7 @@ def _parser():
     what.add_argument("--cell", metavar="NAME|INDEX", help="train (resume, skip) this one cell in this process")
     p.add_argument("--parallel", type=int, default=None,
                    help=f"cells at once, each pinned to its share of the cores (default {DEFAULT_PARALLEL}, "
-                        "measured fastest: docs/BENCHMARKS.md, 'cells at once')")
+                        "measured fastest: docs/PERFORMANCE.md: study-cells-at-once)")
     p.add_argument("--bench", action="append", default=[], metavar="FILE",
                    help="with --report: activation benchmark JSON for Table III (repeatable)")
     p.add_argument("--force", action="store_true", help="with --report: write into a non-empty DIR")

@@ -47,6 +47,7 @@ from __future__ import annotations
 import contextlib
 import os
 import sys
+import threading
 import time
 from dataclasses import dataclass, field
 from typing import Callable
@@ -67,8 +68,8 @@ from swim_jax.placement.distributed import to_host
 from swim_jax.run.heartbeat import Heartbeat, fmt_duration
 from swim_jax.io.replay_store import DIRNAME as REPLAY_DIR
 from swim_jax.io.replay_store import ReplayStore
-from swim_jax.placement.lane_groups import GroupedChunks
-from swim_jax.run.programs import Lanes, Programs, auto_host_devices, backends_started, grouped_chunks, lanes as program_lanes, matmul_dtype, num_lanes, physics_backend, placement, programs, real_lanes, use_compilation_cache, with_physics_backend
+from swim_jax.run.programs import Lanes, Programs, auto_host_devices, backends_started, lanes as program_lanes, matmul_dtype, physics_backend, placement, programs, stepper as program_stepper, use_compilation_cache, with_physics_backend
+from swim_jax.placement.layout import LaneLayout
 from swim_jax.placement.sharding import place, set_host_devices
 
 USAGE = (
@@ -140,7 +141,7 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
     write the evaluations and ``log`` a progress line; finally the final policy and timing."""
     clock = _Clock(time.time())
     say(f"building {cfg.env.id} ({cfg.env.backend} physics: {physics_why}; {cfg.precision}) and the TD3 program for "
-        f"{num_lanes(cfg)} lanes; {matmul_dtype(cfg)[1]}")
+        f"{LaneLayout.of(cfg).count} lanes; {matmul_dtype(cfg)[1]}")
     sharding, groups = placement(cfg, log)
     prog = programs(cfg, sharding)
     native = prog.env.native_physics
@@ -148,8 +149,9 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
         say(f"native physics: MuJoCo C through {'an XLA FFI call' if native.call == 'ffi' else 'Python callbacks'} "
             f"({native.call_reason})")
     lanes = program_lanes(cfg, prog, sharding, groups)
-    grouped = grouped_chunks(cfg, prog, groups)
-    folder = outputs.RunFolder(cfg, run_dir, lanes.seed_ids, writes=distributed.is_writer())
+    stepper = program_stepper(cfg, prog, sharding, groups)  # one program or lane groups, chosen once
+    folder = outputs.RunFolder(cfg, run_dir, lanes.layout, writes=distributed.is_writer())
+    layout = lanes.layout
     folder.create(fresh=not resume)
     ckpt = Checkpointer(os.path.join(run_dir, "checkpoints"), keep=cfg.keep_checkpoints)
     store = ReplayStore(os.path.join(run_dir, "checkpoints", REPLAY_DIR), cfg.replay_size)
@@ -161,32 +163,44 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
     folder.start_logs(restored, closing)  # cut after that checkpoint, or (none) started afresh
     if folder.writes:
         provenance.record(run_dir, restored or 0)  # code, packages, CPU and command of this stretch
+    first_eval = None  # the initial policies' evaluation when it runs beside the first chunk
     if restored is None:
-        states = _initial_states(cfg, prog, lanes, folder, evals, say)
+        states = place(prog.init_fn(*lanes.init_args), lanes.sharding)
+        first_eval = _InitialEvaluation(evals, states, cfg.matmul_precision)
+        if not first_eval.beside:
+            say(f"compiling the evaluation program; evaluating the initial policies ({cfg.eval_episodes} episodes per lane)")
+            first_eval.finish(folder)
+            first_eval = None
         if resume:
             log(f"no checkpoint in {run_dir}; starting from step 0")
     start = 0 if restored is None else restored // cfg.eval_freq
-    folder.evaluations(evals.returns, start + 1)
+    if first_eval is None:
+        folder.evaluations(evals.returns, start + 1)
     n_chunks = cfg.total_steps // cfg.eval_freq
-    # with lane groups, training goes on from the parts; ``states`` is their joined copy after each chunk
-    parts = grouped.split(states, lanes.sweep_args) if grouped is not None and start < n_chunks else None
+    beside = ""
+    if first_eval is not None:  # from here on, beside the training program's compile and first steps
+        first_eval.start()
+        beside = "; beside it the evaluation program compiles and evaluates the initial policies"
+    if start < n_chunks:
+        say(f"compiling the training program and running its first {cfg.eval_freq} steps{beside} "
+            f"(compiles take seconds to minutes on a CPU; cached for the next run)")
+    # training goes on from the stepper's parts; ``states`` is their joined copy after each chunk
+    # (with lane groups splitting compiles the groups' executables)
+    parts = stepper.split(states, lanes.sweep_args) if start < n_chunks else None
     for c in range(start, n_chunks):
         t0 = time.time()
-        if c == start:
-            say(f"compiling the training program and running its first {cfg.eval_freq} steps "
-                f"(compiles take seconds to minutes on a CPU; cached for the next run)")
-        if grouped is None:
-            states, metrics = train_chunk(cfg, prog.chunk_fn, states, c, lanes.sweep_args, lanes.sharding, say,
-                                          beat=say)
-        else:
-            states = None  # the previous chunk's copy goes before the next is made
-            parts, metrics = train_chunk(cfg, prog.chunk_fn, parts, c, lanes.sweep_args, lanes.sharding, say,
-                                         grouped, beat=say)
-            states = grouped.join(parts)
+        states = None  # (with lane groups, the previous chunk's joined copy goes before the next is made)
+        parts, metrics = train_chunk(cfg, stepper, parts, c, say, beat=say, beside=beside)
+        states = stepper.join(parts)
+        if first_eval is not None:
+            say.doing(f"evaluating the initial policies ({cfg.eval_episodes} episodes per lane)")
+            first_eval.finish(folder)
+            folder.evaluations(evals.returns, start + 1)
+            first_eval, beside = None, ""
         bad = to_host(states.bad_step)  # waits for the chunk
         dt = clock.trained(time.time() - t0, cfg.eval_freq)
         step = (c + 1) * cfg.eval_freq
-        _stop_if_non_finite(cfg, folder.points, bad[: folder.real_lanes], ckpt, run_dir)
+        _stop_if_non_finite(layout, bad[: layout.real], ckpt, run_dir)
         say.doing(f"evaluating at step {step} ({cfg.eval_episodes} episodes per lane)")
         folder.evaluation(c + 1, evals.run(states, c + 1), states.agent)
         folder.chunk(step, metrics, to_host(states.episodes), to_host(states.last_return))
@@ -194,15 +208,18 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
         _save(ckpt, store, step, cfg.eval_freq, states, evals)
         folder.evaluations(evals.returns, c + 2)
         clock.iteration_done(time.time() - t0, learning=step > cfg.learning_starts, first=c == start)
-        log(_progress_line(cfg, folder.points, step, evals.returns[c + 1, : folder.real_lanes], dt, c == start,
+        log(_progress_line(cfg, layout, step, evals.returns[c + 1, : layout.real], dt, c == start,
                            clock.elapsed(), clock.eta(*_chunks_left(cfg, c + 1)), metrics,
                            prog.agent.matmul_dtype is not None))
-    final_actor = outputs.flat_params(jax.tree.map(lambda x: x[: folder.real_lanes], to_host(states.agent.actor)))
+    if first_eval is not None:  # (no chunk to run beside it)
+        first_eval.finish(folder)
+        folder.evaluations(evals.returns, start + 1)
+    final_actor = outputs.flat_params(jax.tree.map(lambda x: x[: layout.real], to_host(states.agent.actor)))
     folder.final_policy(final_actor)
-    timing = _timing(cfg, prog, lanes, evals, clock, start if resume else None, grouped)
+    timing = _timing(cfg, prog, lanes, evals, clock, start if resume else None, stepper)
     folder.timing(timing)
     ckpt.close()
-    return RunResult(run_dir, evals.returns[:, : folder.real_lanes], final_actor, states, prog.chunk_fn,
+    return RunResult(run_dir, evals.returns[:, : layout.real], final_actor, states, prog.chunk_fn,
                      prog.eval_fn, timing)
 
 
@@ -254,13 +271,41 @@ def _restore(ckpt: Checkpointer, store: ReplayStore, step: int, prog: Programs, 
     return place(states, lanes.sharding)
 
 
-def _initial_states(cfg: Config, prog: Programs, lanes: Lanes, folder: outputs.RunFolder,
-                    evals: _Evaluations, say: Callable[[str], None]):
-    """A fresh training state, its evaluation 0 computed and logged."""
-    states = place(prog.init_fn(*lanes.init_args), lanes.sharding)
-    say(f"compiling the evaluation program; evaluating the initial policies ({cfg.eval_episodes} episodes per lane)")
-    folder.evaluation(0, evals.run(states, 0), states.agent)
-    return states
+class _InitialEvaluation:
+    """Evaluation 0 of a fresh run, of a copy of the initial actors and evaluation keys, so that it
+    can run beside the first chunk (which donates the training state): in one process, the
+    evaluation program then compiles and runs on a thread of its own while the training program
+    compiles and runs its first steps, instead of before them (its returns are the same: they
+    depend only on the copied actors and keys). With several processes it runs first, as before
+    (both programs' collectives must run in the same order on every process)."""
+
+    def __init__(self, evals: _Evaluations, states, matmul_precision):
+        self.evals, self.matmul_precision = evals, matmul_precision
+        self.beside = jax.process_count() == 1
+        copy = (lambda tree: jax.tree.map(lambda a: a.copy(), tree)) if self.beside else (lambda tree: tree)
+        self.agent, self.eval_key = copy(states.agent), copy(states.eval_key)
+        self._thread, self._error = None, None
+
+    def start(self) -> None:
+        """Start the evaluation on its own thread."""
+        def work():
+            try:  # (JAX's context settings are per thread: the run's matmul precision again here)
+                with jax.default_matmul_precision(self.matmul_precision):
+                    self.evals.run_actor(self.agent.actor, self.eval_key, 0)
+            except BaseException as e:  # re-raised by finish, on the run's own thread
+                self._error = e
+        self._thread = threading.Thread(target=work, name="initial-evaluation", daemon=True)
+        self._thread.start()
+
+    def finish(self, folder: outputs.RunFolder) -> None:
+        """Wait for the evaluation (or run it now, if it was not started) and log it as evaluation 0."""
+        if self._thread is None:
+            self.evals.run_actor(self.agent.actor, self.eval_key, 0)
+        else:
+            self._thread.join()
+            if self._error is not None:
+                raise self._error
+        folder.evaluation(0, self.evals.returns[0], self.agent)
 
 
 class _Evaluations:
@@ -276,8 +321,12 @@ class _Evaluations:
 
     def run(self, states, j: int) -> np.ndarray:
         """Evaluation ``j`` of ``states``' actors: its row of :attr:`returns`."""
+        return self.run_actor(states.agent.actor, states.eval_key, j)
+
+    def run_actor(self, actor, eval_key, j: int) -> np.ndarray:
+        """Evaluation ``j`` of the lanes' ``actor`` parameters with their evaluation keys."""
         t0 = time.time()
-        r = self._eval_fn(states.agent.actor, states.eval_key, jnp.asarray(j, jnp.int32), *self._sweep_args)
+        r = self._eval_fn(actor, eval_key, jnp.asarray(j, jnp.int32), *self._sweep_args)
         self.returns[j] = to_host(r)
         self.seconds += time.time() - t0
         return self.returns[j]
@@ -354,10 +403,11 @@ def _chunks_left(cfg: Config, done: int) -> tuple[int, int]:
 
 
 def _timing(cfg: Config, prog: Programs, lanes: Lanes, evals: _Evaluations, clock: _Clock,
-            resumed_from_chunk: int | None, grouped: GroupedChunks | None = None) -> dict:
-    """``timing.json``: wall time, throughput (aggregate and per lane), compile counts (with lane
-    groups, ``chunk_compiles`` counts their executables, all compiled before the first call)."""
-    P, S = len(cfgmod.sweep_points(cfg)), cfg.seeds
+            resumed_from_chunk: int | None, stepper) -> dict:
+    """``timing.json``: wall time, throughput (aggregate and per lane), compile counts
+    (``chunk_compiles``: the stepper's executables; lane groups compile all of theirs before the
+    first call)."""
+    P, S = len(lanes.layout.points), lanes.layout.seeds
     train_s = clock.train_s
     return {
         "wall_time_s": clock.elapsed(),
@@ -371,7 +421,7 @@ def _timing(cfg: Config, prog: Programs, lanes: Lanes, evals: _Evaluations, cloc
         "lanes": lanes.count,
         "total_steps": cfg.total_steps,
         "resumed_from_chunk": resumed_from_chunk,
-        "chunk_compiles": prog.chunk_fn._cache_size() + (grouped.executables if grouped else 0),
+        "chunk_compiles": stepper.executables,
         "eval_compiles": prog.eval_fn._cache_size(),
         "platform": jax.devices()[0].platform,
         "devices": (jax.device_count() if lanes.sharding is not None
@@ -383,15 +433,13 @@ def _timing(cfg: Config, prog: Programs, lanes: Lanes, evals: _Evaluations, cloc
     }
 
 
-def _stop_if_non_finite(cfg: Config, points, bad_step: np.ndarray, ckpt: Checkpointer, run_dir: str) -> None:
+def _stop_if_non_finite(layout: LaneLayout, bad_step: np.ndarray, ckpt: Checkpointer, run_dir: str) -> None:
     """Raise :class:`NonFiniteError` naming the earliest NaN/inf in ``bad_step[real lanes, CHECKED]``."""
     hit = _first_bad(bad_step)
     if hit is None:
         return
     lane, st, q = hit
-    where = f"seed {cfg.first_seed + lane % cfg.seeds}"
-    if cfg.sweep:
-        where += f" of sweep point {cfgmod.point_label(points[lane // cfg.seeds])}"
+    where = layout.where(lane)
     last = ckpt.latest_step()
     raise NonFiniteError(
         f"non-finite {q} in {where} at step {st}; stopped "
@@ -411,18 +459,15 @@ def _first_bad(bad_step: np.ndarray):
 PROGRESS_EVERY_S = 30.0
 
 
-def train_chunk(cfg: Config, chunk_fn, states, c: int, sweep_args, sharding, say,
-                grouped: GroupedChunks | None = None, beat: Heartbeat | None = None):
-    """Chunk ``c`` (``eval_freq`` steps) as calls of ``steps_per_call(cfg)`` steps each.
-    Re-placing keeps the input sharding identical every call (no recompilation).
+def train_chunk(cfg: Config, stepper, parts, c: int, say, beat: Heartbeat | None = None, beside: str = ""):
+    """Chunk ``c`` (``eval_freq`` steps) of ``parts`` (from ``stepper.split``) as calls of
+    ``steps_per_call(cfg)`` steps each, made by ``stepper`` (swim_jax/placement/stepping.py).
     With ``beat`` (the run's :class:`~swim_jax.run.heartbeat.Heartbeat`) each call is waited for and
     named as the run's activity, and after a call, once ``PROGRESS_EVERY_S`` seconds passed since
     the run's last line, ``say`` gets the step, env-steps/s and the time to the chunk's evaluation
-    (the heartbeat speaks while a call runs longer than that).
-    With ``grouped`` (swim_jax/placement/lane_groups.py) ``states`` are its :class:`~swim_jax.placement.lane_groups.Parts`
-    (so is what it returns) and every call runs as the lane groups' programs (``chunk_fn``,
-    ``sweep_args`` and ``sharding`` unused: the parts hold their arguments).
-    Returns (states, the chunk's per-lane learning metrics, ``learning_log.combine``)."""
+    (the heartbeat speaks while a call runs longer than that); ``beside`` is added to the named
+    activity (what else runs meanwhile).
+    Returns (parts, the chunk's per-lane learning metrics, ``learning_log.combine``)."""
     per_call = cfgmod.steps_per_call(cfg)
     calls = cfg.eval_freq // per_call
     t0 = time.time()
@@ -431,27 +476,22 @@ def train_chunk(cfg: Config, chunk_fn, states, c: int, sweep_args, sharding, say
     for j in range(calls):
         t = c * cfg.eval_freq + j * per_call
         if beat is not None:
-            beat.doing(f"training steps {t}-{t + per_call} of {cfg.total_steps}{so_far}")
-        if grouped is None:
-            states, m = chunk_fn(states, jnp.asarray(t, jnp.int32), *sweep_args)
-            states = place(states, sharding)
-        else:
-            states, m = grouped.step(states, t)
+            beat.doing(f"training steps {t}-{t + per_call} of {cfg.total_steps}{so_far}{beside}")
+        parts, m = stepper.step(parts, t)
         metrics.append(m)
         if beat is None or j + 1 == calls:
             continue
         # wait for the call (cheap: a few ints), so the step and the rate are the real ones
-        states.ready() if grouped is not None else jax.block_until_ready(states.bad_step)
+        stepper.ready(parts)
         done = (j + 1) * per_call
         rate = done / (time.time() - t0)
-        progress = (f"{rate * real_lanes(cfg):.0f} env-steps/s in this chunk, "
+        progress = (f"{rate * LaneLayout.of(cfg).real:.0f} env-steps/s in this chunk, "
                     f"evaluation in {_fmt_time((cfg.eval_freq - done) / rate)}")
         so_far = f" ({progress} at step {t + per_call})"  # what a heartbeat line during the next call says
         if time.monotonic() - beat.last_line >= PROGRESS_EVERY_S:
             say(f"step {t + per_call}/{cfg.total_steps}: {progress}")
-    if grouped is not None:
-        metrics = [grouped.join_metrics(to_host(m), _merge_pieces) for m in metrics]
-    return states, learning_log.combine(to_host(metrics))
+    metrics = [stepper.join_metrics(to_host(m), _merge_pieces) for m in metrics]
+    return parts, learning_log.combine(to_host(metrics))
 
 
 def _merge_pieces(pieces: list) -> ChunkMetrics:
@@ -459,20 +499,20 @@ def _merge_pieces(pieces: list) -> ChunkMetrics:
     return ChunkMetrics(**learning_log.combine(pieces))
 
 
-def _progress_line(cfg: Config, points, step: int, ev: np.ndarray, dt: float, first: bool,
+def _progress_line(cfg: Config, layout: LaneLayout, step: int, ev: np.ndarray, dt: float, first: bool,
                    elapsed: float, eta: ETA | float, chunk_metrics: dict | None = None, bf16: bool = False) -> str:
     """One line per chunk: step, throughput (", bf16 matmuls" when ``bf16``), eval mean ± std over
     seeds (per point for sweeps), and, once updates run, the chunk's critic loss and Q₁ averaged
     over the lanes."""
-    S, P = cfg.seeds, len(points)
+    S, P, points = layout.seeds, len(layout.points), layout.points
     means = ev.mean(axis=1)  # [P·S] each lane's mean episode return
     rate = cfg.eval_freq * P * S / dt
-    unit = "lane" if cfg.sweep else "seed"
-    over = f"{P} points × {S} seeds" if cfg.sweep else f"{S} seeds"
+    unit = "lane" if layout.swept else "seed"
+    over = f"{P} points × {S} seeds" if layout.swept else f"{S} seeds"
     line = (f"step {step:>8d}/{cfg.total_steps} | {rate:8.0f} env-steps/s ({rate / (P * S):.0f}/{unit}"
             f"{', incl. compile' if first else ''}{', bf16 matmuls' if bf16 else ''}) | eval {means.mean():9.2f} ± {means.std():7.2f} over {over}")
-    if cfg.sweep and P <= 8:
-        point_means = means.reshape(P, S).mean(axis=1)
+    if layout.swept and P <= 8:
+        point_means = layout.point_means(means)
         line += " [" + ", ".join(f"{cfgmod.point_label(pt)}: {m:.0f}" for pt, m in zip(points, point_means)) + "]"
     if chunk_metrics is not None and np.any(chunk_metrics["updates"][: P * S] > 0):
         line += (f" | critic loss {np.nanmean(chunk_metrics['critic_loss'][: P * S]):.3g}"
@@ -536,7 +576,7 @@ def main(argv: list[str] | None = None, require_sweep: bool = False) -> int:
                               f"(sweepable keys: {', '.join(cfgmod.sweepable_keys(cfg))})")
         spawn = cfg.local_processes > 1 and not launch.multi  # (the spawned processes are launch.multi)
         if spawn:
-            local_processes.check(cfg, num_lanes(cfg))
+            local_processes.check(cfg, LaneLayout.of(cfg).count)
     except ConfigError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
