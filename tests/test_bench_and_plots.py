@@ -127,11 +127,11 @@ def test_env_benchmark_rejects_an_unknown_backend_with_exit_2(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("module,args,needle", [
-    ("bench_train", ["--lanes", "0,2"], "positive integers"), ("bench_train", ["--lanes", "x"], "positive integers"),
-    ("bench_train", ["--config", "nope"], "valid configs"), ("bench_train", ["--repeats", "0"], ">= 1"),
-    ("bench_train", ["--variant", "matmul_dtype=float16"], "valid: auto, full, bfloat16"),
-    ("bench_profile", ["--lanes", "0"], ">= 1"), ("bench_profile", ["--steps", "0"], ">= 1"),
-    ("bench_profile", ["--config", "nope"], "valid configs")])
+    ("bench.train", ["--lanes", "0,2"], "positive integers"), ("bench.train", ["--lanes", "x"], "positive integers"),
+    ("bench.train", ["--config", "nope"], "valid configs"), ("bench.train", ["--repeats", "0"], ">= 1"),
+    ("bench.train", ["--variant", "matmul_dtype=float16"], "valid: auto, full, bfloat16"),
+    ("bench.profile", ["--lanes", "0"], ">= 1"), ("bench.profile", ["--steps", "0"], ">= 1"),
+    ("bench.profile", ["--config", "nope"], "valid configs")])
 def test_train_and_profile_benchmarks_bad_input_exit_2_nothing_written(tmp_path, capsys, module, args, needle):
     import importlib
 

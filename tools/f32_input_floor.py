@@ -14,7 +14,7 @@ jax.config.update("jax_enable_x64", True)
 
 import numpy as np  # noqa: E402
 
-import envs  # noqa: E402
+from swim_jax import envs  # noqa: E402
 from swim_jax.envs import gym_reference as gr  # noqa: E402
 
 
