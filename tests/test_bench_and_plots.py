@@ -246,6 +246,100 @@ def test_profile_reads_each_products_layout_and_flops_from_hlo():
     assert {"p0", "dot.1", "ynn_fusion.4", "dot.9"} <= bp.instruction_names(HLO_SNIPPET)
 
 
+def test_interleave_rotates_each_round_and_drops_the_warmup_calls():
+    """swim_jax.bench.timing.interleave: warm-up calls first (each candidate back to back, round
+    indices -warmup … -1, not returned), then rounds × candidates calls, the order rotated by one
+    place per round; each candidate's measurements in round order, after_round seeing each round."""
+    from swim_jax.bench import timing
+
+    calls, rounds_seen = [], []
+
+    def candidate(name, base):
+        def run(r):
+            calls.append((name, r))
+            return base + r
+        return run
+
+    out = timing.interleave({"a": candidate("a", 100), "b": candidate("b", 200), "c": candidate("c", 300)}, rounds=4,
+                            warmup=2, after_round=lambda r, measured: rounds_seen.append((r, list(measured.items()))))
+    assert calls[:6] == [("a", -2), ("a", -1), ("b", -2), ("b", -1), ("c", -2), ("c", -1)]
+    assert [n for n, _ in calls[6:]] == list("abc" "bca" "cab" "abc") and len(calls) == 6 + 4 * 3
+    assert [r for _, r in calls[6:]] == [0] * 3 + [1] * 3 + [2] * 3 + [3] * 3
+    assert list(out) == ["a", "b", "c"] and out == {"a": [100, 101, 102, 103], "b": [200, 201, 202, 203],
+                                                    "c": [300, 301, 302, 303]}
+    assert rounds_seen[1] == (1, [("b", 201), ("c", 301), ("a", 101)]) and len(rounds_seen) == 4
+    # without rotation every round runs the mapping's order; no warm-up by default
+    calls.clear()
+    timing.interleave({"a": candidate("a", 0), "b": candidate("b", 0)}, rounds=3, rotate=False)
+    assert calls == [("a", 0), ("b", 0), ("a", 1), ("b", 1), ("a", 2), ("b", 2)]
+    assert timing.order(["x", "y", "z"], 5) == ["z", "x", "y"] and timing.order(["x", "y"], 5, rotate=False) == ["x", "y"]
+
+
+def test_timed_reads_the_clock_around_the_calls_and_waits_on_the_last_result():
+    """timing.timed with a fake clock that each call of the work advances by 0.5 s: seconds per call
+    is exactly 0.5 for any calls_per_sample; wait gets the last call's result once per sample; work
+    outside the timed function (a round's set-up) is not counted."""
+    from swim_jax.bench import timing
+
+    now, waited = [10.0], []
+
+    def work(r):
+        now[0] += 0.5
+        return ("result", r)
+
+    sample = timing.timed(work, calls_per_sample=4, wait=waited.append, clock=lambda: now[0])
+    assert sample(7) == 0.5 and now[0] == 12.0 and waited == [("result", 7)]
+    set_up_then_timed = lambda r: (now.__setitem__(0, now[0] + 100.0), sample(r))[1]
+    assert timing.interleave({"w": set_up_then_timed}, rounds=2) == {"w": [0.5, 0.5]}
+    assert timing.timed(work, wait=None, clock=lambda: now[0])(0) == 0.5  # nothing to wait for
+
+
+def test_summarise_and_ratios_compare_candidates_round_by_round():
+    """timing.summarise: median, min, max, mean, population std; timing.ratios: each round's
+    measurement over the reference's of the same round, summarised (not the ratio of medians)."""
+    from swim_jax.bench import timing
+
+    t = timing.summarise([3.0, 1.0, 2.0, 10.0])
+    assert (t.median, t.min, t.max, t.mean) == (2.5, 1.0, 10.0, 4.0) and t.std == pytest.approx(math.sqrt(12.5))
+    assert t.samples == (3.0, 1.0, 2.0, 10.0) and t.as_dict(10) == {"median": 25.0, "min": 10.0, "max": 100.0,
+                                                                   "mean": 40.0, "std": pytest.approx(10 * math.sqrt(12.5))}
+    assert timing.summarise([4.0]).std == 0.0
+    rel = timing.ratios({"a": [1.0, 4.0, 3.0], "ref": [2.0, 2.0, 6.0]}, "ref")
+    assert rel["a"].samples == (0.5, 2.0, 0.5) and rel["a"].median == 0.5  # the ratio of medians would be 1.5
+    assert rel["ref"].samples == (1.0, 1.0, 1.0)
+    with pytest.raises(ValueError, match="2 samples"):
+        timing.ratios({"a": [1.0, 2.0], "ref": [1.0, 2.0, 3.0]}, "ref")
+
+
+def test_time_interleaved_is_interleave_of_timed_with_untimed_warmups(monkeypatch):
+    """time_interleaved: max(warmup, 1) untimed calls of each candidate alone, then rotating rounds
+    of calls_per_sample calls; on a fake wall clock that a's calls advance by 1 s and b's by 3 s, the
+    medians are exactly 1 and 3 seconds per call."""
+    import jax.numpy as jnp
+
+    from swim_jax.bench import timing
+
+    now, calls = [0.0], []
+    monkeypatch.setitem(timing.CLOCKS, "wall", lambda: now[0])
+
+    def candidate(name, seconds):
+        def run():
+            calls.append(name)
+            now[0] += seconds
+            return jnp.zeros(())
+        return run
+
+    out = timing.time_interleaved({"a": candidate("a", 1.0), "b": candidate("b", 3.0)}, repeats=2,
+                                  calls_per_sample=3, warmup=2)
+    assert calls == ["a"] * 2 + ["b"] * 2 + ["a"] * 3 + ["b"] * 3 + ["b"] * 3 + ["a"] * 3
+    assert out["a"].samples == (1.0, 1.0) and out["b"].median == 3.0
+    calls.clear()
+    timing.time_interleaved({"a": candidate("a", 1.0)}, repeats=1, warmup=0)
+    assert calls == ["a", "a"]  # at least one warm-up call
+    with pytest.raises(ValueError, match="valid: wall, cpu"):
+        timing.time_interleaved({"a": candidate("a", 1.0)}, clock="gpu")
+
+
 def test_interleaved_chunk_ratios_advance_each_state_and_compare_within_rounds():
     """bench_train.interleaved_chunk_ratios: every executable runs once per round with its own
     state and the round's first step (steps · round), states are advanced in place, and the
