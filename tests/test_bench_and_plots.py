@@ -341,7 +341,7 @@ def test_time_interleaved_is_interleave_of_timed_with_untimed_warmups(monkeypatc
 
 
 def test_interleaved_chunk_ratios_advance_each_state_and_compare_within_rounds():
-    """bench_train.interleaved_chunk_ratios: every executable runs once per round with its own
+    """swim_jax.bench.train.interleaved_chunk_ratios (on the harness): every executable runs once per round with its own
     state and the round's first step (steps · round), states are advanced in place, and the
     reference's ratio to itself is exactly 1."""
     import jax.numpy as jnp

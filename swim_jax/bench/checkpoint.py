@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import os
 import shutil
-import statistics
 import subprocess
 import tempfile
 import time
@@ -32,6 +31,7 @@ import numpy as np
 from swim_jax.io import cli_parser
 from swim_jax import config as cfgmod
 from swim_jax.io.bench_results import cpu_model, write_result
+from swim_jax.bench import timing
 
 
 def _parser():
@@ -114,16 +114,12 @@ def main(argv: list[str] | None = None) -> int:
         a, b = store.new_range(n0, n0 + args.chunk)
         store.append(a, b, {k: v[:, a % cfg.replay_size:(a % cfg.replay_size) + (b - a)]
                             for k, v in host._asdict().items()})
-    times: dict[str, list[float]] = {"whole": [], "appended": []}
-    for r in range(args.rounds):
-        step = max(args.fill, args.chunk) + r * args.chunk
-        t0 = time.perf_counter()
-        whole.save(step, (states, evals))
-        times["whole"].append(time.perf_counter() - t0)
-        t0 = time.perf_counter()
-        train._save(appended, store, step, args.chunk, states, Evals())
-        times["appended"].append(time.perf_counter() - t0)
-        print(f"round {r + 1}: whole {times['whole'][-1]:.2f} s, appended {times['appended'][-1]:.2f} s", flush=True)
+    step = lambda r: max(args.fill, args.chunk) + r * args.chunk  # round r's checkpoint step
+    times = timing.interleave({
+        "whole": timing.timed(lambda r: whole.save(step(r), (states, evals)), wait=None),
+        "appended": timing.timed(lambda r: train._save(appended, store, step(r), args.chunk, states, Evals()), wait=None),
+    }, args.rounds, rotate=False, after_round=lambda r, t: print(
+        f"round {r + 1}: whole {t['whole']:.2f} s, appended {t['appended']:.2f} s", flush=True))
     last = max(args.fill, args.chunk) + (args.rounds - 1) * args.chunk
     full_template = (jax.eval_shape(lambda: states), jax.ShapeDtypeStruct(evals.shape, evals.dtype))
     t0 = time.perf_counter()
@@ -141,7 +137,7 @@ def main(argv: list[str] | None = None) -> int:
         "fill": args.fill, "chunk": args.chunk, "keep": args.keep, "rounds": args.rounds,
         "cpu": cpu_model(), "cores": len(os.sched_getaffinity(0)),
         "seconds": times,
-        "median_s": {k: statistics.median(v) for k, v in times.items()},
+        "median_s": {k: timing.summarise(v).median for k, v in times.items()},
         "disk_bytes": {"whole": _du(whole_dir), "appended": _du(appended_dir), "one_whole_state": one_state},
         "restore_s": {"whole": restore_whole, "appended": restore_appended},
     }
@@ -153,8 +149,8 @@ def main(argv: list[str] | None = None) -> int:
     print("| checkpoint | seconds (median) | min–max | disk after the rounds | vs one whole state | restore (s) |")
     print("|---|---|---|---|---|---|")
     for k in ("whole", "appended"):
-        v = times[k]
-        print(f"| {k} | {statistics.median(v):.2f} | {min(v):.2f}–{max(v):.2f} | {mb(result['disk_bytes'][k])} | "
+        t = timing.summarise(times[k])
+        print(f"| {k} | {t.median:.2f} | {t.min:.2f}–{t.max:.2f} | {mb(result['disk_bytes'][k])} | "
               f"{result['disk_bytes'][k] / one_state:.2f}× | {result['restore_s'][k]:.1f} |")
     print(f"one whole state: {mb(one_state)}")
     write_result(args.out, "checkpoint", result)

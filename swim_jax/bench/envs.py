@@ -15,7 +15,6 @@ from __future__ import annotations
 import json
 import os
 import platform
-import statistics
 import time
 from typing import Dict, List, Optional, Sequence
 
@@ -27,7 +26,7 @@ from swim_jax.envs.base import BACKENDS
 from swim_jax.envs.physics.mjx_solver import check_implementation
 from swim_jax.envs.registry import ENV_IDS, make
 from swim_jax.io import cli_parser
-from swim_jax.bench.timing import time_interleaved
+from swim_jax.bench.timing import summarise, time_interleaved
 
 DEFAULT_ENVS = ("Hopper-v5", "Walker2d-v5", "HalfCheetah-v5", "Swimmer-v5", "Ant-v5")
 
@@ -107,10 +106,10 @@ def bench_env(env_id: str, batches: Sequence[int], scan_len: int, repeats: int,
             candidates[variant] = lambda fn=compiled, st=states, k=key: fn(st, k)
         timings = time_interleaved(candidates, repeats=repeats, warmup=1)
         native_all = [native_steps / t for t in timings["native"].samples]
-        nat_med = statistics.median(native_all)
+        nat_med = summarise(native_all).median
         for variant in variants:
             steps_all = [batch * scan_len / t for t in timings[variant].samples]
-            med = statistics.median(steps_all)
+            med = summarise(steps_all).median
             row = dict(env=env_id, batch=batch, scan_len=scan_len, physics=variant,
                        ms_per_batched_step=round(1000 * batch / med, 4),
                        compile_s=round(compile_s[variant], 2),

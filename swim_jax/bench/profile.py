@@ -44,6 +44,7 @@ from swim_jax.io import cli_parser
 from swim_jax import config as cfgmod
 from swim_jax.run import programs
 from swim_jax.io.bench_results import cpu_model, write_result
+from swim_jax.bench import timing
 from swim_jax.bench.train import lanes_program, learning_phase_overrides
 from swim_jax.config import ConfigError
 
@@ -212,9 +213,7 @@ def measure(config: str, lanes: int, steps: int, overrides=(), log=print) -> dic
         box[0] = jax.block_until_ready(chunk(box[0], jnp.asarray(call * steps, jnp.int32))[0])
 
     run(0), run(1)  # warm-up: first-call allocations, the replay filling
-    t0 = time.perf_counter()
-    run(2)
-    timed = (time.perf_counter() - t0) / steps * 1e3
+    timed = timing.timed(run, wait=None)(2) / steps * 1e3  # call 2, timed alone (run blocks itself)
     res = summarise(profile_call(lambda: run(3), hlo_text), hlo_text, steps)
     return {"benchmark": "profile", "config": config, "overrides": list(overrides), "lanes": lanes, "steps": steps,
             "env": cfg.env.id, "backend": cfg.env.backend, "precision": cfg.precision,

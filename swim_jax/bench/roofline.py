@@ -18,10 +18,8 @@ from __future__ import annotations
 
 import json
 import os
-import statistics
 import subprocess
 import sys
-import time
 from dataclasses import dataclass
 
 import jax
@@ -34,6 +32,7 @@ from swim_jax.agents.replay import Transition
 from swim_jax.io import cli_parser
 from swim_jax import config as cfgmod
 from swim_jax.run.programs import build
+from swim_jax.bench import timing
 
 
 @dataclass(frozen=True)
@@ -118,21 +117,16 @@ def _product_loop(d: Dot, n: int):
 def time_dots(dots: list[Dot], repeats: int = 7, loop: int = 50) -> dict[Dot, float]:
     """Median seconds of each distinct product compiled alone (random operands, ``loop``
     products per call, see :func:`_product_loop`), interleaved over ``repeats`` rounds."""
-    fns = {}
+    candidates = {}
     for d in set(dots):
         rng = np.random.default_rng(0)
         x = jnp.asarray(rng.normal(size=d.lhs), d.dtype)
         y = jnp.asarray(rng.normal(size=d.rhs), d.dtype)
         f = _product_loop(d, loop)
         jax.block_until_ready(f(x, y))
-        fns[d] = (f, x, y)
-    samples = {d: [] for d in fns}
-    for _ in range(repeats):
-        for d, (f, x, y) in fns.items():
-            t0 = time.perf_counter()
-            jax.block_until_ready(f(x, y))
-            samples[d].append((time.perf_counter() - t0) / loop)
-    return {d: statistics.median(s) for d, s in samples.items()}
+        candidates[d] = timing.timed(lambda _r, f=f, x=x, y=y: f(x, y))
+    samples = timing.interleave(candidates, repeats, rotate=False)
+    return {d: timing.summarise(s).median / loop for d, s in samples.items()}
 
 
 def roofline(agent, repeats: int = 7) -> dict:

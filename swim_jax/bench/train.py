@@ -33,7 +33,6 @@ import argparse
 import dataclasses
 import os
 import platform
-import statistics
 import sys
 import time
 
@@ -44,7 +43,7 @@ from swim_jax.agents.replay import Transition
 from swim_jax.io import cli_parser
 from swim_jax import config as cfgmod
 from swim_jax.run import programs, train
-from swim_jax.bench import roofline
+from swim_jax.bench import roofline, timing
 from swim_jax.io.bench_results import write_result
 from swim_jax.config import ConfigError
 # importing these does not start the JAX backend, so --host-devices (XLA_FLAGS) still applies
@@ -131,13 +130,14 @@ def _row(c, times: list[float], compile_s: float, one_lane_s, chunk_steps: int, 
     chunk times; ``one_lane_s``: the median chunk time of the 1-lane program of its variant (or
     None); ``executables``/``added``: its chunk's compiled executables and those added while timing."""
     L, sh, v, groups = c
-    med = statistics.median(times)
+    t = timing.summarise(times)
+    med = t.median
     rate = flops * chunk_steps * L / med / 1e9
     return {
         "lanes": L, "variant": v,
         "devices": len(sh.mesh.devices.flat) if sh is not None else len(groups.devices) if groups is not None else 1,
         "lane_groups": groups.describe() if groups is not None else None,
-        "median_s": med, "min_s": min(times), "max_s": max(times), "chunk_s": list(times),
+        "median_s": med, "min_s": t.min, "max_s": t.max, "chunk_s": list(times),
         "env_steps_per_s": chunk_steps * L / med, "env_steps_per_s_per_lane": chunk_steps / med,
         "ms_per_step": 1000 * med / chunk_steps, "compile_plus_first_chunk_s": compile_s,
         "cost_ratio_vs_1": (med / (L * one_lane_s)) if one_lane_s else None,
@@ -168,18 +168,19 @@ def lanes_program(cfg, lanes: int, sharding=None):
 
 def interleaved_chunk_ratios(executables: dict, states: dict, rounds: int, steps: int, reference: str) -> dict:
     """Run ``rounds`` interleaved rounds of every compiled chunk in ``executables`` (name → executable
-    of ``steps`` steps, called as ``exe(state, first_step, None)``; ``states`` holds each one's state
-    and is advanced). Returns name → (median ms per step, median over rounds of its step time / the
-    ``reference`` executable's in the same round)."""
-    times = {name: [] for name in executables}
-    for r in range(rounds):
-        for name, exe in executables.items():
-            t0 = time.perf_counter()
-            states[name] = jax.block_until_ready(exe(states[name], jnp.asarray(steps * (r + 1), jnp.int32), None)[0])
-            times[name].append((time.perf_counter() - t0) / steps * 1e3)
-    base = times[reference]
-    return {name: (statistics.median(t), statistics.median([a / b for a, b in zip(t, base)]))
-            for name, t in times.items()}
+    of ``steps`` steps, called as ``exe(state, first_step, None)`` with first step ``steps · (r + 1)``
+    in round r, in the mapping's order each round; ``states`` holds each one's state and is
+    advanced). Returns name → (median ms per step, median over rounds of its step time / the
+    ``reference`` executable's in the same round): :func:`swim_jax.bench.timing.ratios`."""
+    def chunk(name, exe):
+        def run(r):
+            states[name] = exe(states[name], jnp.asarray(steps * (r + 1), jnp.int32), None)[0]
+            return states[name]
+        return timing.timed(run)  # waits for the new state
+
+    samples = timing.interleave({name: chunk(name, exe) for name, exe in executables.items()}, rounds, rotate=False)
+    per_round = timing.ratios(samples, reference)
+    return {name: (timing.summarise(s).median / steps * 1e3, per_round[name].median) for name, s in samples.items()}
 
 
 def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overrides=(), log=print,
@@ -211,20 +212,20 @@ def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overr
     def executables(c):  # compiled chunk executables of candidate c (its groups' are all made before chunk 0)
         return steppers[c].executables
 
-    warm_sizes = {c: executables(c) for c in candidates}
-    times = {c: [] for c in candidates}
-    for r in range(repeats):
-        for c in candidates:
-            t0 = time.perf_counter()
+    def timed_chunk(c):  # round r is the chunk r + 1 (chunk 0 compiled); run_chunk blocks itself
+        def run(r):
             states[c] = run_chunk(c, states[c], r + 1)
-            times[c].append(time.perf_counter() - t0)
+        return timing.timed(run, wait=None)
+
+    warm_sizes = {c: executables(c) for c in candidates}
+    times = timing.interleave({c: timed_chunk(c) for c in candidates}, repeats, rotate=False)
     agent = progs[candidates[0]].agent
     flops = update_flops(agent)
     roof = _rooflines(config, bench, agent, log) if with_roofline else None  # bench ends with overrides
     one = {}  # cost ratios against the first (single-device) 1-lane program of the same variant
     for c in candidates:
         if c[0] == 1 and c[2] not in one:
-            one[c[2]] = statistics.median(times[c])
+            one[c[2]] = timing.summarise(times[c]).median
     rows = [_row(c, times[c], compile_s[c], one.get(c[2]), chunk_steps, flops, roof,
                  executables(c), executables(c) - warm_sizes[c])
             for c in candidates]
