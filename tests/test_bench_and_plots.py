@@ -340,6 +340,37 @@ def test_time_interleaved_is_interleave_of_timed_with_untimed_warmups(monkeypatc
         timing.time_interleaved({"a": candidate("a", 1.0)}, clock="gpu")
 
 
+def test_process_benchmarks_interleave_their_runs_and_report_rates(monkeypatch):
+    """bench processes and bench study on the harness, each run replaced by a known rate: placements
+    (cells at once) in a fixed order every round, one folder per round, medians and ratios as in
+    their JSON."""
+    from swim_jax.bench import processes, study
+
+    ran = []
+
+    def train_rate(args, out_dir, placement, cores):
+        ran.append(os.path.basename(out_dir))
+        r = int(out_dir.rsplit("-", 1)[1])
+        return {"one-process": 100.0, "host-devices": 110.0, "processes": 120.0}[placement] + 10 * r
+
+    monkeypatch.setattr(processes, "train_rate", train_rate)
+    monkeypatch.setattr(processes.os, "sched_getaffinity", lambda _pid: {0, 1})
+    res = processes.measure("cheetah_relu", 4, 10, 1, 3, log=lambda _: None)
+    assert ran == [f"{p}-{r}" for r in range(3) for p in processes.PLACEMENTS]
+    assert res["env_steps_per_s"] == {"one-process": [100.0, 110.0, 120.0], "host-devices": [110.0, 120.0, 130.0],
+                                      "processes": [120.0, 130.0, 140.0]}
+    assert res["median"] == {"one-process": 110.0, "host-devices": 120.0, "processes": 130.0}
+    assert res["ratio_vs_one_process"]["processes"] == pytest.approx(130 / 110)
+
+    monkeypatch.setattr(study, "study_rate", lambda path, out_dir, p: (
+        ran.append(os.path.basename(out_dir)), {"wall_s": 60.0 / p, "env_steps_per_s": 200.0 * p + int(out_dir[-1])})[1])
+    ran.clear()
+    res = study.measure(["walker_relu", "walker_swim"], 2, [1, 2], 10, 1, 2, [], log=lambda _: None)
+    assert ran == ["p1-0", "p2-0", "p1-1", "p2-1"]
+    assert res["env_steps_per_s"] == {"1": [200.0, 201.0], "2": [400.0, 401.0]} and res["wall_s"]["2"] == [30.0, 30.0]
+    assert res["median"] == {"1": 200.5, "2": 400.5} and res["ratio_vs_parallel_1"]["2"] == pytest.approx(400.5 / 200.5)
+
+
 def test_interleaved_chunk_ratios_advance_each_state_and_compare_within_rounds():
     """swim_jax.bench.train.interleaved_chunk_ratios (on the harness): every executable runs once per round with its own
     state and the round's first step (steps · round), states are advanced in place, and the

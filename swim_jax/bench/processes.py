@@ -19,7 +19,6 @@ import argparse
 import json
 import os
 import platform
-import statistics
 import subprocess
 import sys
 import tempfile
@@ -27,6 +26,7 @@ import time
 
 from swim_jax.io import cli_parser
 from swim_jax.io.bench_results import cpu_model, write_result
+from swim_jax.bench import timing
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 PLACEMENTS = ("one-process", "host-devices", "processes")
@@ -82,13 +82,15 @@ def measure(config: str, seeds: int, chunk_steps: int, chunks: int, rounds: int,
     if len(cores) < 2 or seeds % len(cores):
         raise ValueError(f"{seeds} lanes must divide over the {len(cores)} cores (and at least 2 cores)")
     args = train_args(config, seeds, chunk_steps, chunks, overrides)
-    rates = {p: [] for p in PLACEMENTS}
     with tempfile.TemporaryDirectory(prefix="swim-bench-processes-") as tmp:
-        for r in range(rounds):
-            for placement in PLACEMENTS:
-                rates[placement].append(train_rate(args, os.path.join(tmp, f"{placement}-{r}"), placement, cores))
-                log(f"round {r + 1}: {placement}: {rates[placement][-1]:.0f} env-steps/s")
-    medians = {p: statistics.median(v) for p, v in rates.items()}
+        def run(placement):  # a candidate: round r's run in its own folder, its reported rate
+            def rate(r):
+                value = train_rate(args, os.path.join(tmp, f"{placement}-{r}"), placement, cores)
+                log(f"round {r + 1}: {placement}: {value:.0f} env-steps/s")
+                return value
+            return rate
+        rates = timing.interleave({p: run(p) for p in PLACEMENTS}, rounds, rotate=False)
+    medians = {p: timing.summarise(v).median for p, v in rates.items()}
     return {
         "benchmark": "processes", "config": config, "seeds": seeds, "overrides": list(overrides),
         "chunk_steps": chunk_steps, "chunks": chunks, "rounds": rounds, "cores": len(cores),

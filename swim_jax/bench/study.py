@@ -16,7 +16,6 @@ from __future__ import annotations
 import json
 import os
 import platform
-import statistics
 import subprocess
 import sys
 import tempfile
@@ -26,6 +25,7 @@ import yaml
 
 from swim_jax.io import cli_parser
 from swim_jax.io.bench_results import cpu_model, write_result
+from swim_jax.bench import timing
 from swim_jax.bench.processes import REPO
 
 
@@ -76,19 +76,21 @@ def study_rate(path: str, out_dir: str, parallel: int) -> dict:
 def measure(configs: list[str], seeds: int, parallel: list[int], chunk_steps: int, chunks: int, rounds: int,
             overrides: list[str], log=print) -> dict:
     """Every candidate's study throughput in every round (alternated) and their medians."""
-    rates = {p: [] for p in parallel}
-    walls = {p: [] for p in parallel}
     with tempfile.TemporaryDirectory(prefix="swim-bench-study-") as tmp:
         path = os.path.join(tmp, "bench.yaml")
         study_file(path, configs, seeds, chunk_steps, chunks, overrides)
-        for r in range(rounds):
-            for p in parallel:
+
+        def run(p):  # a candidate: round r's study in its own folder, its wall time and throughput
+            def measured(r):
                 res = study_rate(path, os.path.join(tmp, f"p{p}-{r}"), p)
-                rates[p].append(res["env_steps_per_s"])
-                walls[p].append(res["wall_s"])
                 log(f"round {r + 1}: --parallel {p}: {res['env_steps_per_s']:.0f} env-steps/s "
                     f"(study wall {res['wall_s']:.0f} s)")
-    medians = {p: statistics.median(v) for p, v in rates.items()}
+                return res
+            return measured
+        runs = timing.interleave({p: run(p) for p in parallel}, rounds, rotate=False)
+    rates = {p: [res["env_steps_per_s"] for res in v] for p, v in runs.items()}
+    walls = {p: [res["wall_s"] for res in v] for p, v in runs.items()}
+    medians = {p: timing.summarise(v).median for p, v in rates.items()}
     return {
         "benchmark": "study", "configs": configs, "seeds": seeds, "overrides": overrides,
         "chunk_steps": chunk_steps, "chunks": chunks, "rounds": rounds, "cores": len(os.sched_getaffinity(0)),
