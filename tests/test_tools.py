@@ -138,3 +138,37 @@ def test_peer_summary_pairs_each_round_with_that_rounds_best_peer():
     assert summary["cleanrl"]["round_ratios"] is None and summary["cleanrl"]["ratio_vs_best_peer"] is None
     table = bench_peers.markdown("Hopper-v5", {"summary": summary}, {"steps": 10, "rounds": 3})
     assert "| ours-mujoco | 200 (150–210) | 1.33× | 1.25, 1.11, 1.05 (1.11×) |" in table
+
+
+def test_peer_rounds_rotate_the_programs_and_keep_every_raw_result(monkeypatch):
+    """bench_peers.bench_env on swim_jax.bench.timing.interleave, each run replaced by a known rate:
+    the program order rotates per round (recorded in the round's "order"), each round keeps every
+    program's raw result, rates and labels come in the first round's order, and ours' per-round
+    ratios pair it with the best peer of the same round."""
+    ran = []
+
+    def run_peer(impl, env_id, s):
+        r = sum(1 for p in ran if p == impl)
+        ran.append(impl)
+        rate = {"pytorch": [100.0, 180.0, 150.0], "cleanrl": [120.0, 150.0, 200.0]}[impl][r]
+        return {"program": impl, "procs": 2, "env_steps_per_s": rate, "wall_env_steps_per_s": rate,
+                "overlap_fraction": 1.0, "cpu_per_wall": [1.0, 1.0]}
+
+    def run_ours(env_id, s):
+        r = sum(1 for p in ran if p == "ours")
+        ran.append("ours")
+        return {"program": "ours", "rows": {"ours-mujoco-groups": {"env_steps_per_s": [150.0, 200.0, 210.0][r],
+                                                                    "label": "ours"}}}
+
+    monkeypatch.setattr(bench_peers, "run_peer", run_peer)
+    monkeypatch.setattr(bench_peers, "run_ours", run_ours)
+    logged = []
+    res = bench_peers.bench_env("Hopper-v5", {"rounds": 3, "procs": 2, "lanes": 5}, log=logged.append)
+    assert ran == ["pytorch", "cleanrl", "ours", "cleanrl", "ours", "pytorch", "ours", "pytorch", "cleanrl"]
+    assert [r["order"] for r in res["rounds"]] == [ran[0:3], ran[3:6], ran[6:9]]
+    assert [r["round"] for r in res["rounds"]] == [0, 1, 2] and list(res["rounds"][1]) == ["round", "order", "cleanrl", "ours", "pytorch"]
+    assert res["rounds"][2]["ours"]["rows"]["ours-mujoco-groups"]["env_steps_per_s"] == 210.0
+    assert list(res["summary"]) == ["pytorch", "cleanrl", "ours-mujoco-groups"] and res["best_peer_median"] == 150.0
+    assert res["summary"]["pytorch"]["label"] == "PyTorch TD3 (Fujimoto, original), 2 procs × 1 thread"
+    assert res["summary"]["ours-mujoco-groups"]["round_ratios"] == pytest.approx([150 / 120, 200 / 180, 210 / 200])
+    assert len(logged) == 9 and logged[0].startswith("[Hopper-v5 round 1/3] pytorch: 100.0 env-steps/s")

@@ -11,14 +11,12 @@
 
 from __future__ import annotations
 
-import statistics
-import time
-
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 from swim_jax import envs
+from swim_jax.bench import timing
 from swim_jax.io import cli_parser
 
 
@@ -33,13 +31,8 @@ def callback_floor_ms(calls: int = 1000, repeats: int = 10) -> float:
 
     f = jax.jit(lambda x, y: jax.lax.scan(body, (x, y), None, length=calls)[0])
     args = (jnp.zeros((5, 36), jnp.uint32), jnp.zeros((5, 60), jnp.float32))
-    jax.block_until_ready(f(*args))
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        jax.block_until_ready(f(*args))
-        times.append((time.perf_counter() - t0) / calls * 1e3)
-    return statistics.median(times)
+    seconds = timing.interleave({"floor": timing.timed(lambda _r: f(*args))}, repeats, warmup=1)["floor"]
+    return timing.summarise(seconds).median / calls * 1e3
 
 
 def threads_ms(env_id: str, lanes: int, steps: int, rounds: int) -> dict:
@@ -54,20 +47,25 @@ def threads_ms(env_id: str, lanes: int, steps: int, rounds: int) -> dict:
         return jax.lax.scan(body, st, jax.random.split(key, steps))[0]
 
     f = jax.jit(run)
-    st = jax.block_until_ready(f(jax.vmap(env.reset)(jax.random.split(jax.random.PRNGKey(0), lanes)),
-                                 jax.random.PRNGKey(1)))
-    times = {1: [], 2: []}
-    for r in range(rounds):
-        for nt in (1, 2):
-            # a fresh Batch on nt threads whatever the call's physics time
+    box = [jax.block_until_ready(f(jax.vmap(env.reset)(jax.random.split(jax.random.PRNGKey(0), lanes)),
+                                   jax.random.PRNGKey(1)))]  # one state, advanced by both candidates
+
+    def advance(r):
+        box[0] = f(box[0], jax.random.PRNGKey(r))
+        return box[0]
+
+    def on_threads(nt):  # a fresh Batch on nt threads whatever the call's physics time (untimed), then the timed call
+        sample = timing.timed(advance)
+
+        def candidate(r):
             native.threads, native.POOL_MIN_SECONDS = nt, 0.0
             native._batches.clear()
-            t0 = time.perf_counter()
-            st = jax.block_until_ready(f(st, jax.random.PRNGKey(r)))
-            times[nt].append((time.perf_counter() - t0) / steps * 1e3)
-    ratio = statistics.median([b / a for a, b in zip(times[1], times[2])])
-    return {"env": env_id, "ms_1_thread": statistics.median(times[1]),
-            "ms_2_threads": statistics.median(times[2]), "ratio_2_over_1": ratio}
+            return sample(r) / steps * 1e3
+        return candidate
+
+    times = timing.interleave({nt: on_threads(nt) for nt in (1, 2)}, rounds, rotate=False)
+    return {"env": env_id, "ms_1_thread": timing.summarise(times[1]).median,
+            "ms_2_threads": timing.summarise(times[2]).median, "ratio_2_over_1": timing.ratios(times, 1)[2].median}
 
 
 def main(argv=None) -> int:

@@ -68,7 +68,6 @@ import glob
 import json
 import os
 import shlex
-import statistics
 import subprocess
 import sys
 import tempfile
@@ -81,11 +80,13 @@ if TOOLS not in sys.path:
 from bench_pytorch_td3 import CONFIGS  # noqa: E402  env id → our *_relu config
 from swim_jax.io import cli_parser  # noqa: E402
 from swim_jax.io.bench_results import cpu_model, write_result  # noqa: E402
+from swim_jax.bench import timing  # noqa: E402
 from swim_jax.bench.processes import train_args, train_rate  # noqa: E402
 
 WORKER = os.path.join(TOOLS, "peers_td3.py")
 PEERS = ("pytorch", "cleanrl")
 PROGRAMS = ("pytorch", "cleanrl", "ours")
+BEST_PEER = "best peer of the round"  # the reference of ours' per-round ratios (no program's name)
 LABELS = {"pytorch": "PyTorch TD3 (Fujimoto, original)", "cleanrl": "cleanrl-style JAX TD3"}
 PEER_MODULES = ("torch", "jax", "flax", "optax", "gymnasium", "mujoco")
 SINGLE_THREAD_ENV = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
@@ -286,28 +287,34 @@ def run_ours(env_id: str, s: dict) -> dict:
 
 
 def bench_env(env_id: str, s: dict, log=print) -> dict:
-    """All rounds for one env, program order rotated per round; raw results and per-program rates."""
-    rounds, rates, labels = [], {}, {}
-    for r in range(s["rounds"]):
-        order = PROGRAMS[r % 3:] + PROGRAMS[:r % 3]
-        this = {"round": r, "order": list(order)}
-        for prog in order:
+    """All rounds for one env, program order rotated per round (``swim_jax.bench.timing.interleave``);
+    raw results and per-program rates."""
+    def candidate(prog):  # round r's run of one program, logged as it ends
+        def run(r):
             tag = f"[{env_id} round {r + 1}/{s['rounds']}]"
             if prog in PEERS:
                 res = run_peer(prog, env_id, s)
-                rates.setdefault(prog, []).append(res["env_steps_per_s"])
-                labels[prog] = f"{LABELS[prog]}, {s['procs']} procs × 1 thread"
                 log(f"{tag} {prog}: {res['env_steps_per_s']:.1f} env-steps/s summed over {res['procs']} processes "
                     f"(wall-clock {res['wall_env_steps_per_s']:.1f}, overlap {res['overlap_fraction']:.2f}, "
                     f"CPU/wall {', '.join(f'{c:.2f}' for c in res['cpu_per_wall'])})")
             else:
                 res = run_ours(env_id, s)
                 for key, row in res["rows"].items():
-                    rates.setdefault(key, []).append(row["env_steps_per_s"])
-                    labels[key] = row["label"]
                     log(f"{tag} {key}: {row['env_steps_per_s']:.1f} env-steps/s ({s['lanes']} lanes)")
-            this[prog] = res
-        rounds.append(this)
+            return res
+        return run
+
+    rounds = []
+    runs = timing.interleave({prog: candidate(prog) for prog in PROGRAMS}, s["rounds"],
+                             after_round=lambda r, done: rounds.append({"round": r, "order": list(done), **done}))
+    rates, labels = {}, {}  # per program (ours: per row), in the order of the first round
+    for prog in PROGRAMS:
+        for res in runs[prog]:
+            rows = ({prog: {"env_steps_per_s": res["env_steps_per_s"], "label": f"{LABELS[prog]}, {s['procs']} procs × 1 thread"}}
+                    if prog in PEERS else res["rows"])
+            for key, row in rows.items():
+                rates.setdefault(key, []).append(row["env_steps_per_s"])
+                labels[key] = row["label"]
     summary, best_peer = summarize(rates, labels)
     return {"rounds": rounds, "summary": summary, "best_peer_median": best_peer}
 
@@ -315,18 +322,20 @@ def bench_env(env_id: str, s: dict, log=print) -> dict:
 def summarize(rates: dict, labels: dict) -> tuple[dict, float | None]:
     """Per program: the median, min, max of its per-round rates (``rates[key]``, one per round);
     for ours also the ratio of medians to the best peer's median and the per-round ratios to the best
-    peer OF THAT ROUND (paired: a drift of the machine between rounds cancels) with their median.
-    Returns (summary, best peer's median)."""
-    summary = {k: {"label": labels[k], "median": statistics.median(v), "min": min(v), "max": max(v), "values": v}
-               for k, v in rates.items()}
+    peer OF THAT ROUND (paired: a drift of the machine between rounds cancels; ``timing.ratios``) with
+    their median. Returns (summary, best peer's median)."""
+    summary = {}
+    for k, v in rates.items():
+        t = timing.summarise(v)
+        summary[k] = {"label": labels[k], "median": t.median, "min": t.min, "max": t.max, "values": v}
     best_peer = max((summary[p]["median"] for p in PEERS if p in summary), default=None)
-    peers = [rates[p] for p in PEERS if p in rates]
-    best_per_round = [max(r) for r in zip(*peers)] if peers else []
+    ours = [k for k in rates if k not in PEERS] if best_peer else []
+    best_per_round = [max(r) for r in zip(*(rates[p] for p in PEERS if p in rates))]
+    per_round = timing.ratios({**{k: rates[k] for k in ours}, BEST_PEER: best_per_round}, BEST_PEER) if ours else {}
     for k, v in summary.items():
-        ours = k not in PEERS and best_peer
-        v["ratio_vs_best_peer"] = (v["median"] / best_peer) if ours else None
-        v["round_ratios"] = [x / b for x, b in zip(v["values"], best_per_round)] if ours else None
-        v["median_round_ratio"] = statistics.median(v["round_ratios"]) if ours else None
+        v["ratio_vs_best_peer"] = (v["median"] / best_peer) if k in per_round else None
+        v["round_ratios"] = list(per_round[k].samples) if k in per_round else None
+        v["median_round_ratio"] = per_round[k].median if k in per_round else None
     return summary, best_peer
 
 

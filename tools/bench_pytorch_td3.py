@@ -23,9 +23,7 @@ from __future__ import annotations
 
 import argparse
 import copy
-import statistics
 import sys
-import time
 
 import numpy as np
 
@@ -141,6 +139,7 @@ def main(argv=None) -> int:
     import jax.numpy as jnp
 
     from swim_jax import config as cfgmod
+    from swim_jax.bench import timing
     from swim_jax.bench.train import lanes_program, learning_phase_overrides
 
     torch_step = pytorch_td3(args.env)
@@ -152,17 +151,21 @@ def main(argv=None) -> int:
     st = jax.block_until_ready(prog.chunk_fn(st, jnp.asarray(0, jnp.int32))[0])  # compile
     for _ in range(50):
         torch_step()
-    t_torch, t_jax = [], []
-    for r in range(args.repeats):
-        t0 = time.perf_counter()
+    box = [st]
+
+    def torch_block(_r):  # --steps learning steps of the PyTorch run (synchronous on a CPU)
         for _ in range(args.steps):
             torch_step()
-        t_torch.append(time.perf_counter() - t0)
-        t0 = time.perf_counter()
-        st = jax.block_until_ready(prog.chunk_fn(st, jnp.asarray((r + 1) * args.steps, jnp.int32))[0])
-        t_jax.append(time.perf_counter() - t0)
-    torch_rate = args.steps / statistics.median(t_torch)
-    jax_rate = args.steps * args.lanes / statistics.median(t_jax)
+
+    def jax_chunk(r):  # block r: the chunk from step (r + 1) · steps, advancing the state
+        box[0] = prog.chunk_fn(box[0], jnp.asarray((r + 1) * args.steps, jnp.int32))[0]
+        return box[0]
+
+    blocks = timing.interleave({"torch": timing.timed(torch_block, wait=None),
+                                "jax": timing.timed(jax_chunk)}, args.repeats, rotate=False)
+    t_torch, t_jax = blocks["torch"], blocks["jax"]
+    torch_rate = args.steps / timing.summarise(t_torch).median
+    jax_rate = args.steps * args.lanes / timing.summarise(t_jax).median
     print(f"{args.env}, 256-256 ReLU TD3, learning phase, {args.steps} steps × {args.repeats} interleaved blocks "
           f"(torch {torch.__version__}, {torch.get_num_threads()} threads; jax {jax.__version__})")
     print(f"PyTorch TD3, 1 run:      {torch_rate:7.1f} env-steps/s (blocks {', '.join(f'{t:.2f}' for t in t_torch)} s)")
