@@ -60,7 +60,7 @@ def test_grouped_training_equals_one_program(tmp_path):
     asked for, why."""
     code = (
         "import json, jax, numpy as np\n"
-        "from swim_jax import config as c, train\n"
+        "from swim_jax import config as c\nfrom swim_jax.run import train\n"
         "tiny = ['seeds=3','total_steps=2000','eval_freq=1000','progress_steps=500','learning_starts=500',"
         "'eval_episodes=2','replay_size=4000','agent.hidden=[16,16]','agent.batch_size=32','env.backend=mujoco',"
         "'precision=float64']\n"

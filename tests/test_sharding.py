@@ -64,7 +64,7 @@ def test_sharded_training_equals_one_device_training(tmp_path):
     the same evaluations (to float rounding) and one compiled chunk program per placement."""
     code = (
         "import json, numpy as np\n"
-        "from swim_jax import config as c, train\n"
+        "from swim_jax import config as c\nfrom swim_jax.run import train\n"
         "tiny = ['seeds=2','total_steps=2000','eval_freq=1000','learning_starts=1000','eval_episodes=2',"
         "'replay_size=4000','agent.hidden=[16,16]','agent.batch_size=32']\n"
         f"a = train.run(c.resolve('hopper_relu', tiny + ['shard_lanes=false']), {str(tmp_path / 'one')!r}, log=lambda s: None)\n"

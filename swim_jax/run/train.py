@@ -47,7 +47,6 @@ from __future__ import annotations
 import contextlib
 import os
 import sys
-import threading
 import time
 from dataclasses import dataclass, field
 from typing import Callable
@@ -163,26 +162,15 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
     folder.start_logs(restored, closing)  # cut after that checkpoint, or (none) started afresh
     if folder.writes:
         provenance.record(run_dir, restored or 0)  # code, packages, CPU and command of this stretch
-    first_eval = None  # the initial policies' evaluation when it runs beside the first chunk
     if restored is None:
-        states = place(prog.init_fn(*lanes.init_args), lanes.sharding)
-        first_eval = _InitialEvaluation(evals, states, cfg.matmul_precision)
-        if not first_eval.beside:
-            say(f"compiling the evaluation program; evaluating the initial policies ({cfg.eval_episodes} episodes per lane)")
-            first_eval.finish(folder)
-            first_eval = None
+        states = _initial_states(cfg, prog, lanes, folder, evals, say)
         if resume:
             log(f"no checkpoint in {run_dir}; starting from step 0")
     start = 0 if restored is None else restored // cfg.eval_freq
-    if first_eval is None:
-        folder.evaluations(evals.returns, start + 1)
+    folder.evaluations(evals.returns, start + 1)
     n_chunks = cfg.total_steps // cfg.eval_freq
-    beside = ""
-    if first_eval is not None:  # from here on, beside the training program's compile and first steps
-        first_eval.start()
-        beside = "; beside it the evaluation program compiles and evaluates the initial policies"
-    if start < n_chunks:
-        say(f"compiling the training program and running its first {cfg.eval_freq} steps{beside} "
+    if start < n_chunks:  # (said before the split: with lane groups, splitting compiles their executables)
+        say(f"compiling the training program and running its first {cfg.eval_freq} steps "
             f"(compiles take seconds to minutes on a CPU; cached for the next run)")
     # training goes on from the stepper's parts; ``states`` is their joined copy after each chunk
     # (with lane groups splitting compiles the groups' executables)
@@ -190,13 +178,8 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
     for c in range(start, n_chunks):
         t0 = time.time()
         states = None  # (with lane groups, the previous chunk's joined copy goes before the next is made)
-        parts, metrics = train_chunk(cfg, stepper, parts, c, say, beat=say, beside=beside)
+        parts, metrics = train_chunk(cfg, stepper, parts, c, say, beat=say)
         states = stepper.join(parts)
-        if first_eval is not None:
-            say.doing(f"evaluating the initial policies ({cfg.eval_episodes} episodes per lane)")
-            first_eval.finish(folder)
-            folder.evaluations(evals.returns, start + 1)
-            first_eval, beside = None, ""
         bad = to_host(states.bad_step)  # waits for the chunk
         dt = clock.trained(time.time() - t0, cfg.eval_freq)
         step = (c + 1) * cfg.eval_freq
@@ -211,9 +194,6 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
         log(_progress_line(cfg, layout, step, evals.returns[c + 1, : layout.real], dt, c == start,
                            clock.elapsed(), clock.eta(*_chunks_left(cfg, c + 1)), metrics,
                            prog.agent.matmul_dtype is not None))
-    if first_eval is not None:  # (no chunk to run beside it)
-        first_eval.finish(folder)
-        folder.evaluations(evals.returns, start + 1)
     final_actor = outputs.flat_params(jax.tree.map(lambda x: x[: layout.real], to_host(states.agent.actor)))
     folder.final_policy(final_actor)
     timing = _timing(cfg, prog, lanes, evals, clock, start if resume else None, stepper)
@@ -271,41 +251,13 @@ def _restore(ckpt: Checkpointer, store: ReplayStore, step: int, prog: Programs, 
     return place(states, lanes.sharding)
 
 
-class _InitialEvaluation:
-    """Evaluation 0 of a fresh run, of a copy of the initial actors and evaluation keys, so that it
-    can run beside the first chunk (which donates the training state): in one process, the
-    evaluation program then compiles and runs on a thread of its own while the training program
-    compiles and runs its first steps, instead of before them (its returns are the same: they
-    depend only on the copied actors and keys). With several processes it runs first, as before
-    (both programs' collectives must run in the same order on every process)."""
-
-    def __init__(self, evals: _Evaluations, states, matmul_precision):
-        self.evals, self.matmul_precision = evals, matmul_precision
-        self.beside = jax.process_count() == 1
-        copy = (lambda tree: jax.tree.map(lambda a: a.copy(), tree)) if self.beside else (lambda tree: tree)
-        self.agent, self.eval_key = copy(states.agent), copy(states.eval_key)
-        self._thread, self._error = None, None
-
-    def start(self) -> None:
-        """Start the evaluation on its own thread."""
-        def work():
-            try:  # (JAX's context settings are per thread: the run's matmul precision again here)
-                with jax.default_matmul_precision(self.matmul_precision):
-                    self.evals.run_actor(self.agent.actor, self.eval_key, 0)
-            except BaseException as e:  # re-raised by finish, on the run's own thread
-                self._error = e
-        self._thread = threading.Thread(target=work, name="initial-evaluation", daemon=True)
-        self._thread.start()
-
-    def finish(self, folder: outputs.RunFolder) -> None:
-        """Wait for the evaluation (or run it now, if it was not started) and log it as evaluation 0."""
-        if self._thread is None:
-            self.evals.run_actor(self.agent.actor, self.eval_key, 0)
-        else:
-            self._thread.join()
-            if self._error is not None:
-                raise self._error
-        folder.evaluation(0, self.evals.returns[0], self.agent)
+def _initial_states(cfg: Config, prog: Programs, lanes: Lanes, folder: outputs.RunFolder,
+                    evals: _Evaluations, say: Callable[[str], None]):
+    """A fresh training state, its evaluation 0 computed and logged."""
+    states = place(prog.init_fn(*lanes.init_args), lanes.sharding)
+    say(f"compiling the evaluation program; evaluating the initial policies ({cfg.eval_episodes} episodes per lane)")
+    folder.evaluation(0, evals.run(states, 0), states.agent)
+    return states
 
 
 class _Evaluations:
@@ -321,12 +273,8 @@ class _Evaluations:
 
     def run(self, states, j: int) -> np.ndarray:
         """Evaluation ``j`` of ``states``' actors: its row of :attr:`returns`."""
-        return self.run_actor(states.agent.actor, states.eval_key, j)
-
-    def run_actor(self, actor, eval_key, j: int) -> np.ndarray:
-        """Evaluation ``j`` of the lanes' ``actor`` parameters with their evaluation keys."""
         t0 = time.time()
-        r = self._eval_fn(actor, eval_key, jnp.asarray(j, jnp.int32), *self._sweep_args)
+        r = self._eval_fn(states.agent.actor, states.eval_key, jnp.asarray(j, jnp.int32), *self._sweep_args)
         self.returns[j] = to_host(r)
         self.seconds += time.time() - t0
         return self.returns[j]
@@ -459,14 +407,13 @@ def _first_bad(bad_step: np.ndarray):
 PROGRESS_EVERY_S = 30.0
 
 
-def train_chunk(cfg: Config, stepper, parts, c: int, say, beat: Heartbeat | None = None, beside: str = ""):
+def train_chunk(cfg: Config, stepper, parts, c: int, say, beat: Heartbeat | None = None):
     """Chunk ``c`` (``eval_freq`` steps) of ``parts`` (from ``stepper.split``) as calls of
     ``steps_per_call(cfg)`` steps each, made by ``stepper`` (swim_jax/placement/stepping.py).
     With ``beat`` (the run's :class:`~swim_jax.run.heartbeat.Heartbeat`) each call is waited for and
     named as the run's activity, and after a call, once ``PROGRESS_EVERY_S`` seconds passed since
     the run's last line, ``say`` gets the step, env-steps/s and the time to the chunk's evaluation
-    (the heartbeat speaks while a call runs longer than that); ``beside`` is added to the named
-    activity (what else runs meanwhile).
+    (the heartbeat speaks while a call runs longer than that).
     Returns (parts, the chunk's per-lane learning metrics, ``learning_log.combine``)."""
     per_call = cfgmod.steps_per_call(cfg)
     calls = cfg.eval_freq // per_call
@@ -476,7 +423,7 @@ def train_chunk(cfg: Config, stepper, parts, c: int, say, beat: Heartbeat | None
     for j in range(calls):
         t = c * cfg.eval_freq + j * per_call
         if beat is not None:
-            beat.doing(f"training steps {t}-{t + per_call} of {cfg.total_steps}{so_far}{beside}")
+            beat.doing(f"training steps {t}-{t + per_call} of {cfg.total_steps}{so_far}")
         parts, m = stepper.step(parts, t)
         metrics.append(m)
         if beat is None or j + 1 == calls:
