@@ -49,7 +49,7 @@ def test_check_versions_warns_on_a_mismatch(monkeypatch):
 
 
 def test_importing_envs_prints_nothing():
-    out = subprocess.run([sys.executable, "-c", "import envs"], capture_output=True, text=True,
+    out = subprocess.run([sys.executable, "-c", "import swim_jax.envs"], capture_output=True, text=True,
                          cwd=REPO, check=True)
     assert out.stdout == "", out.stdout
     assert "warp" not in out.stderr and "Warning" not in out.stderr, out.stderr

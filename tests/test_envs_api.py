@@ -149,7 +149,7 @@ def test_step_autoreset_lanes_equals_step_autoreset_lane_by_lane():
 def test_making_an_env_prints_nothing_and_writes_no_mujoco_log(tmp_path):
     """Gymnasium's half_cheetah.xml draws MuJoCo's settotalmass deprecation notice on every load
     (printed, and appended to ./MUJOCO_LOG.TXT): building the env shows neither."""
-    code = "import envs; envs.make('HalfCheetah-v5', backend='mujoco'); print('made')"
+    code = "from swim_jax import envs; envs.make('HalfCheetah-v5', backend='mujoco'); print('made')"
     env = {**os.environ, "PYTHONPATH": REPO}
     out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env, capture_output=True, text=True)
     assert out.returncode == 0, out.stderr
