@@ -66,10 +66,13 @@ def test_sizes_bounds_and_gymnasium_spaces(env_id, obs_size, act_size, dt):
     genv.close()
 
 
-@pytest.fixture(scope="module")
-def short_hopper():
-    """Hopper-v5 with a 3-step time limit and a jitted, vmapped step_autoreset (compiled once)."""
-    env = envs.make("Hopper-v5", max_episode_steps=3)
+@pytest.fixture(scope="module", params=["mujoco", pytest.param("mjx", marks=pytest.mark.slow)])
+def short_hopper(request):
+    """Hopper-v5 with a 3-step time limit and a jitted, vmapped step_autoreset (compiled once per
+    module), on each physics backend: the time limit and the auto-reset are the backends' shared
+    JAX code (swim_jax/envs/base.py, autoreset.py), so the default run takes MuJoCo C (compiles in
+    seconds); MJX (minutes) runs with -m slow, and trains end to end in tests/test_sweep.py."""
+    env = envs.make("Hopper-v5", max_episode_steps=3, backend=request.param)
     reset = jax.jit(jax.vmap(env.reset))
     step = jax.jit(jax.vmap(lambda s, a, k: envs.step_autoreset(env, s, a, k)))
     return env, reset, step
@@ -107,9 +110,10 @@ def test_termination_is_not_truncation(short_hopper):
     Batch 2, as the truncation test: the same compiled step serves both."""
     env, reset, step = short_hopper
     state = reset(jax.random.split(jax.random.PRNGKey(2), 2))
-    # push lane 0's angle out of (-0.2, 0.2): its next step terminates
+    # push lane 0's angle out of (-0.2, 0.2): its next step terminates (set through physics_reset:
+    # the native backend steps from its exact state, not from the qpos view)
     data = state.pipeline_state
-    state = state.replace(pipeline_state=data.replace(qpos=data.qpos.at[0, 2].set(0.5)))
+    state = state.replace(pipeline_state=jax.jit(jax.vmap(env.physics_reset))(data.qpos.at[0, 2].set(0.5), data.qvel))
     state, final_obs = step(state, jnp.zeros((2, env.action_size)),
                             jax.random.split(jax.random.PRNGKey(3), 2))
     assert float(state.done[0]) == 1.0 and float(state.info["truncation"][0]) == 0.0
