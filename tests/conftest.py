@@ -3,10 +3,17 @@
 import jax
 import pytest
 
+from swim_jax.run.programs import use_compilation_cache
+
 # Start JAX's backends now, so that in-process runs see one CPU device whichever test comes first:
 # train.run asks for one host device per core (lane_groups, on by default) only before they start.
 # Lane groups are tested in subprocesses with their own XLA_FLAGS (tests/test_lane_groups.py).
 jax.devices()
+# The persistent compilation cache every run uses (~/.cache/swim-jax/xla, $XDG_CACHE_HOME respected;
+# off with SWIM_JAX_NO_COMPILATION_CACHE=1), from the session's first compile instead of its first
+# train.run: a program compiled before (the MJX env programs take minutes each on 2 cores) is read
+# back, keyed by its HLO, the XLA flags and jaxlib, so a changed program compiles anew.
+use_compilation_cache()
 
 
 @pytest.fixture
