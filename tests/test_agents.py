@@ -90,8 +90,9 @@ def test_td3_two_updates_match_float64_reference(act_name):
             terminated=jnp.asarray((rng.uniform(size=B) < 0.3).astype(np.float64)),
         )
         keys = [jax.random.PRNGKey(100), jax.random.PRNGKey(101)]
-        s1, m1 = jax.jit(agent.update)(state, batch, keys[0], jnp.asarray(False))
-        s2, m2 = jax.jit(agent.update)(s1, batch, keys[1], jnp.asarray(True))
+        update = jax.jit(agent.update)  # one program for both updates (the flag is traced)
+        s1, m1 = update(state, batch, keys[0], jnp.asarray(False))
+        s2, m2 = update(s1, batch, keys[1], jnp.asarray(True))
 
         # ---------------- reference ----------------
         name, nh, k = act_name, 2, 0.75
