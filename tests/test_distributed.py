@@ -10,6 +10,7 @@ import signal
 import subprocess
 import sys
 
+import jax
 import numpy as np
 import pytest
 
@@ -71,8 +72,12 @@ def test_cli_bad_launch_flag_exit_2_nothing_written(tmp_path, capsys):
 # ------------------------------------------------------------------------------------------------
 
 def _env(tmp_path) -> dict:
-    return dict(os.environ, JAX_PLATFORMS="cpu", PYTHONUNBUFFERED="1",
-                JAX_COMPILATION_CACHE_DIR=str(tmp_path / "jax_cache"), JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS="0")
+    """The processes share a persistent compilation cache: the session's (tests/conftest.py), so a
+    rerun of the suite loads their executables instead of compiling them; else one of their own."""
+    shared = jax.config.jax_compilation_cache_dir
+    cache = {"JAX_COMPILATION_CACHE_DIR": shared} if shared else {
+        "JAX_COMPILATION_CACHE_DIR": str(tmp_path / "jax_cache"), "JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS": "0"}
+    return dict(os.environ, JAX_PLATFORMS="cpu", PYTHONUNBUFFERED="1", **cache)
 
 
 def _start(args: list[str], tmp_path, n: int = 2) -> list[subprocess.Popen]:
