@@ -224,6 +224,17 @@ def render_markdown(nums: Numbers, score: str, n_boot: int, boot_seed: int, comm
     return "\n".join(L) + _sweep_section(nums.series)
 
 
+def _matmul_products_cell(g: EnvGroup) -> str:
+    """The dtype the env's runs multiplied in (timing.json): one dtype when all agree, else per
+    activation; "?" when no run records it."""
+    per_act = {a: "+".join(c.matmul_products) for a, c in g.curves.items() if c.matmul_products}
+    if not per_act:
+        return "?"
+    if len(set(per_act.values())) == 1 and len(per_act) == len(g.curves):
+        return next(iter(per_act.values()))
+    return ", ".join(f"{_name(a)} {d}" for a, d in per_act.items())
+
+
 def _budget_section(groups: dict[str, EnvGroup], configs: dict[str, dict]) -> list[str]:
     """Our budget per env next to the paper's, and warnings where they differ or activations' configs do."""
     pb = paper_ref.PAPER_BUDGET
@@ -238,8 +249,9 @@ def _budget_section(groups: dict[str, EnvGroup], configs: dict[str, dict]) -> li
         if g.truncated_to_step is not None:
             steps += f" (truncated to {g.truncated_to_step:,}: incomplete runs)"
         rows.append([env, steps, str(g.eval_freq), str(cfg.get("eval_episodes", "?")), seeds,
-                     str(cfg.get("precision", "?"))])
-    L += [_md_table(["env", "steps per run", "eval every", "episodes per eval", "seeds", "precision"], rows), ""]
+                     str(cfg.get("precision", "?")), _matmul_products_cell(g)])
+    L += [_md_table(["env", "steps per run", "eval every", "episodes per eval", "seeds", "precision",
+                     "matmul products"], rows), ""]
     small = [env for env, g in groups.items() if g.total_steps < pb["total_steps"]
              or min(c.n_seeds for c in g.curves.values()) < pb["seeds"]]
     if small:
@@ -463,7 +475,8 @@ def results_dict(nums: Numbers, score: str, n_boot: int, boot_seed: int) -> dict
             env: {
                 "total_steps": g.total_steps, "eval_freq": g.eval_freq, "truncated_to_step": g.truncated_to_step,
                 "steps": [int(s) for s in g.steps], "warnings": g.warnings,
-                "curves": {a: {"mean": c.returns.mean(axis=1).tolist(), "std": c.returns.std(axis=1).tolist()}
+                "curves": {a: {"mean": c.returns.mean(axis=1).tolist(), "std": c.returns.std(axis=1).tolist(),
+                               "matmul_products": c.matmul_products}
                            for a, c in g.curves.items()},
                 "table2": t2[env], "improvement_pct": nums.imp.get(env),
                 "comparisons": {pair: {s: comp(c) for s, c in by.items()} for pair, by in comps[env].items()},

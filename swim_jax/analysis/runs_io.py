@@ -79,6 +79,7 @@ class Run:
     metrics: LearningMetrics | None = None  # from metrics.csv; None without one
     setting: ActivationSetting | None = None  # the activation the label names
     sweep_suffix: str = ""  # a sweep point's other swept values, "[tau=0.01]"; "" otherwise
+    matmul_products: str | None = None  # dtype its matmul products ran in (timing.json); None: not recorded
 
     @property
     def expected_evals(self) -> int:
@@ -103,6 +104,7 @@ class Curves:
     runs_without_metrics: list = field(default_factory=list)  # paths
     setting: ActivationSetting | None = None
     sweep_suffix: str = ""
+    matmul_products: list = field(default_factory=list)  # sorted dtypes of its runs' products (timing.json)
 
     @property
     def n_seeds(self) -> int:
@@ -172,8 +174,20 @@ def load_run(path: str) -> Run:
         eval_freq=eval_freq, seed_ids=[(base_seed, first_seed + i) for i in range(seeds)],
         returns=returns,
         metrics=load_metrics(path, eval_freq, total_steps, [first_seed + i for i in range(seeds)]),
-        setting=setting, sweep_suffix=suffix,
+        setting=setting, sweep_suffix=suffix, matmul_products=_read_matmul_products(path),
     )
+
+
+def _read_matmul_products(path: str) -> str | None:
+    """The dtype the run's matmul products ran in, as its ``timing.json`` records it (``matmul_dtype``:
+    what ``matmul_dtype=auto`` resolved to on the machine that trained it, e.g. ``bfloat16`` on a CPU
+    with AMX, ``float32`` on one without); None for a folder without one (unfinished, or older)."""
+    try:
+        with open(os.path.join(path, "timing.json")) as f:
+            value = json.load(f).get("matmul_dtype")
+    except (OSError, ValueError, AttributeError):
+        return None
+    return value if isinstance(value, str) else None
 
 
 def _run_files(path: str) -> tuple[str, str]:
@@ -285,7 +299,7 @@ def group_runs(runs: list[Run], allow_incomplete: bool = False) -> dict[str, Env
         for act in sorted(by_act, key=_act_order):
             curves[act] = _pool(env, act, by_act[act], n_common, first.eval_freq)
         g = EnvGroup(env, first.total_steps, first.eval_freq, curves, truncated)
-        g.warnings = _cross_activation_differences(by_act)
+        g.warnings = _cross_activation_differences(by_act) + _matmul_products_differences(by_act)
         groups[env] = g
     return groups
 
@@ -375,7 +389,8 @@ def _pool(env: str, act: str, runs: list[Run], n: int, eval_freq: int) -> Curves
     returns = np.concatenate([r.returns[:n] for r in runs], axis=1)
     steps = np.arange(n, dtype=np.int64) * eval_freq
     return Curves(env, act, steps, returns, [r.path for r in runs], _pool_metrics(runs, n - 1, eval_freq),
-                  [r.path for r in runs if r.metrics is None], runs[0].setting, runs[0].sweep_suffix)
+                  [r.path for r in runs if r.metrics is None], runs[0].setting, runs[0].sweep_suffix,
+                  sorted({r.matmul_products for r in runs if r.matmul_products}))
 
 
 def _pool_metrics(runs: list[Run], n_chunks: int, eval_freq: int) -> LearningMetrics | None:
@@ -407,6 +422,20 @@ def _cross_activation_differences(by_act: dict[str, list[Run]]) -> list[str]:
         for k in _dict_diff(ref, other):
             out.append(f"{ref_act} and {a} runs differ in {k}: {ref.get(k)!r} vs {other.get(k)!r}")
     return out
+
+
+def _matmul_products_differences(by_act: dict[str, list[Run]]) -> list[str]:
+    """A warning when the runs of one env did not all multiply in the same dtype. The configs can agree
+    (``matmul_dtype: auto``) while the machines resolved it differently (bfloat16 on a CPU with
+    AMX / AVX-512 BF16, float32 elsewhere), which the config comparison cannot see."""
+    per_act = {a: ds for a in sorted(by_act, key=_act_order)
+               if (ds := sorted({r.matmul_products for r in by_act[a] if r.matmul_products}))}
+    if len({d for ds in per_act.values() for d in ds}) < 2:
+        return []
+    listed = ", ".join(f"{a} {'+'.join(ds)}" for a, ds in per_act.items())
+    return [f"runs differ in the dtype of their matmul products (timing.json matmul_dtype): {listed}; "
+            f"a difference between these activations may be partly one of precision "
+            f"(set matmul_dtype=full or bfloat16 to fix it across machines)"]
 
 
 def _flat(d: dict, ignored, prefix: str = "") -> dict:
