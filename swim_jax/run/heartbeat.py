@@ -15,9 +15,9 @@ import time
 from typing import Callable
 
 
-def fmt_duration(sec: float) -> str:
-    """``h:mm:ss`` of ``sec`` seconds (rounded), or ``?`` when it is not finite."""
-    if not math.isfinite(sec):
+def fmt_duration(sec: float | None) -> str:
+    """``h:mm:ss`` of ``sec`` seconds (rounded), or ``?`` when it is None or not finite."""
+    if sec is None or not math.isfinite(sec):
         return "?"
     sec = int(round(sec))
     return f"{sec // 3600}:{sec % 3600 // 60:02d}:{sec % 60:02d}"

@@ -50,6 +50,7 @@ import yaml
 from swim_jax.io import cli_parser
 from swim_jax import config as cfgmod
 from swim_jax.io import provenance
+from swim_jax.run.heartbeat import fmt_duration
 from swim_jax.config import Config, ConfigError
 
 STUDY_KEYS = ("name", "out_dir", "envs", "activations", "configs", "seeds", "total_steps", "overrides", "grid")
@@ -364,13 +365,6 @@ def cell_state(c: Cell) -> CellState:
     return CellState(c, state, step, None if last is None else (last[1], last[2]), rate, wall)
 
 
-def _fmt_time(sec: float | None) -> str:
-    if sec is None:
-        return "?"
-    sec = int(round(sec))
-    return f"{sec // 3600}:{sec % 3600 // 60:02d}:{sec % 60:02d}"
-
-
 def status_table(study: Study, parallel: int) -> str:
     """The ``--status`` text: one row per cell, then the study's totals and ETA (cells left ×
     their steps at the measured seconds per step, ``parallel`` cells at a time)."""
@@ -380,13 +374,13 @@ def status_table(study: Study, parallel: int) -> str:
     for s in states:
         ev = "" if s.last_eval is None else f"{s.last_eval[0]:.1f} ± {s.last_eval[1]:.1f}"
         lines.append(f"{s.cell.name:<{width}}  {s.state:<8} {s.step:>8}/{s.cell.cfg.total_steps:<7}  {ev:>34}  "
-                     f"{_fmt_time(s.wall_s) if s.wall_s else ''}")
+                     f"{fmt_duration(s.wall_s) if s.wall_s else ''}")
     counts = {k: sum(s.state == k for s in states) for k in ("done", "running", "started", "left")}
     left_steps = sum(s.cell.cfg.total_steps - s.step for s in states)
     rates = [s.seconds_per_step for s in states if s.seconds_per_step]
     if rates and left_steps:
         per_step = sum(rates) / len(rates)
-        eta = f"ETA {_fmt_time(left_steps * per_step / parallel)} at {parallel} cell(s) at once " \
+        eta = f"ETA {fmt_duration(left_steps * per_step / parallel)} at {parallel} cell(s) at once " \
               f"({per_step * 1000:.1f} ms per step measured over {len(rates)} cell(s))"
     else:
         eta = "done" if not left_steps else "ETA ? (no cell has two checkpoints in its learning phase yet)"
@@ -435,7 +429,7 @@ def run_cell(c: Cell, log: Callable[[str], None] = print) -> int:
         except train.NonFiniteError as e:
             log(f"error: {e}")
             return 3
-        log(f"{c.name}: done in {_fmt_time(res.timing['wall_time_s'])}")
+        log(f"{c.name}: done in {fmt_duration(res.timing['wall_time_s'])}")
     return 0
 
 
@@ -478,7 +472,7 @@ def run_study(study: Study, parallel: int, log: Callable[[str], None] = print, p
                 out.close()
                 del running[slot]
                 if code == 0:
-                    log(f"{c.name}: finished after {_fmt_time(time.time() - t0)}")
+                    log(f"{c.name}: finished after {fmt_duration(time.time() - t0)}")
                 else:
                     failed.append(c.name)
                     log(f"{c.name}: failed with exit status {code}; see {os.path.join(c.run_dir, LOG_FILE)}")
@@ -523,7 +517,7 @@ def study_section(study: Study, states: list[CellState]) -> str:
         prov = provenance.read(s.cell.run_dir)
         cpus = sorted({e.get("cpu", "?") for e in prov})
         commits = sorted({(e.get("git") or {}).get("commit", "?")[:12] for e in prov})
-        lines.append(f"| {s.cell.name} | {s.state} | {s.step} | {_fmt_time(s.wall_s) if s.wall_s else ''} | "
+        lines.append(f"| {s.cell.name} | {s.state} | {s.step} | {fmt_duration(s.wall_s) if s.wall_s else ''} | "
                      f"{'; '.join(cpus)} | {', '.join(commits)} |")
     lines += ["", f"Code: {', '.join(_git_commits(done)) or 'unknown'} (git commit of every start or resume, "
               "provenance.json in each cell).", "",
