@@ -291,6 +291,13 @@ def test_curate_copies_finished_cells_without_checkpoints_and_reports_them(inter
                                       np.load(os.path.join(c.run_dir, "evaluations.npy")))
     report_md = (out / "report" / "REPORT.md").read_text()
     assert all(c.name in report_md for c in done)
+    # the commands train into the study's own folder (the copies have no checkpoints), and the
+    # report names the --curate command that wrote it
+    assert f"--out-dir {s.out_dir} --cell {done[0].name}" in report_md and f"--out-dir {out} --cell" not in report_md
+    assert f"--curate {out}" in report_md.splitlines()[2]
+    products = json.load(open(os.path.join(done[0].run_dir, "timing.json")))["matmul_dtype"]
+    row = next(line for line in report_md.splitlines() if line.startswith(f"| {done[0].name} | done |"))
+    assert f"| {products} |" in row and products in ("float32", "bfloat16")
     stamp = os.path.getmtime(out / done[0].name / "evaluations.csv")
     capsys.readouterr()
     assert study.main([path, "--curate", str(out)]) == 0

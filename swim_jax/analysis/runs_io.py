@@ -174,11 +174,11 @@ def load_run(path: str) -> Run:
         eval_freq=eval_freq, seed_ids=[(base_seed, first_seed + i) for i in range(seeds)],
         returns=returns,
         metrics=load_metrics(path, eval_freq, total_steps, [first_seed + i for i in range(seeds)]),
-        setting=setting, sweep_suffix=suffix, matmul_products=_read_matmul_products(path),
+        setting=setting, sweep_suffix=suffix, matmul_products=read_matmul_products(path),
     )
 
 
-def _read_matmul_products(path: str) -> str | None:
+def read_matmul_products(path: str) -> str | None:
     """The dtype the run's matmul products ran in, as its ``timing.json`` records it (``matmul_dtype``:
     what ``matmul_dtype=auto`` resolved to on the machine that trained it, e.g. ``bfloat16`` on a CPU
     with AMX, ``float32`` on one without); None for a folder without one (unfinished, or older)."""

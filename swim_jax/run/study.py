@@ -502,9 +502,14 @@ def _git_commits(states: list[CellState]) -> list[str]:
     return out
 
 
-def study_section(study: Study, states: list[CellState]) -> str:
+def study_section(study: Study, states: list[CellState], trained: Study | None = None) -> str:
     """The report's study section: which cells are in it (partial studies marked), their wall
-    times, code and machines (provenance), and the exact commands."""
+    times, machines and matmul products (provenance, timing.json), code, and the exact commands
+    that train them into ``trained.out_dir`` (``trained``: the study as run, when ``study`` reads
+    curated copies of its cells elsewhere; default ``study``)."""
+    from swim_jax.analysis.runs_io import read_matmul_products
+
+    trained = trained or study
     done = [s for s in states if s.state == "done"]
     lines = ["## The study", "",
              f"Study file `{os.path.relpath(study.path)}` (`{study.name}`), {len(study.cells)} cells; "
@@ -512,24 +517,28 @@ def study_section(study: Study, states: list[CellState]) -> str:
     if len(done) < len(states):
         lines += ["", f"**Partial study**: {len(states) - len(done)} cell(s) not finished and left out: "
                   + ", ".join(f"{s.cell.name} ({s.state}, step {s.step})" for s in states if s.state != "done") + "."]
-    lines += ["", "| cell | state | steps | wall time (last stretch) | CPU | code |", "|---|---|---|---|---|---|"]
+    lines += ["", "| cell | state | steps | wall time (last stretch) | CPU | matmul products | code |",
+              "|---|---|---|---|---|---|---|"]
     for s in states:
         prov = provenance.read(s.cell.run_dir)
         cpus = sorted({e.get("cpu", "?") for e in prov})
         commits = sorted({(e.get("git") or {}).get("commit", "?")[:12] for e in prov})
         lines.append(f"| {s.cell.name} | {s.state} | {s.step} | {fmt_duration(s.wall_s) if s.wall_s else ''} | "
-                     f"{'; '.join(cpus)} | {', '.join(commits)} |")
+                     f"{'; '.join(cpus)} | {read_matmul_products(s.cell.run_dir) or ''} | {', '.join(commits)} |")
     lines += ["", f"Code: {', '.join(_git_commits(done)) or 'unknown'} (git commit of every start or resume, "
               "provenance.json in each cell).", "",
               "Commands (each cell is resumable; the first runs them all):", "", "```",
-              f"python -m swim_jax.study {os.path.relpath(study.path)} --out-dir {study.out_dir}"]
-    lines += [shlex.join(["python", *cell_command(study, c.name)[1:]]) for c in study.cells]
+              shlex.join(["python", "-m", "swim_jax.study", os.path.relpath(trained.path), "--out-dir", trained.out_dir])]
+    lines += [shlex.join(["python", *cell_command(trained, c.name)[1:]]) for c in trained.cells]
     lines += ["```", ""]
     return "\n".join(lines)
 
 
-def write_report(study: Study, out: str, bench: list[str], force: bool, log: Callable[[str], None] = print) -> int:
-    """``--report``: swim_jax.analysis.report over the finished cells into ``out``, with :func:`study_section`."""
+def write_report(study: Study, out: str, bench: list[str], force: bool, log: Callable[[str], None] = print,
+                 trained: Study | None = None, command: list[str] | None = None) -> int:
+    """``--report``: swim_jax.analysis.report over the finished cells into ``out``, with :func:`study_section`
+    (``trained``: see there). ``command``: the command line the report names as its origin (default:
+    the ``--report`` command that writes it)."""
     from swim_jax.analysis import report
 
     states = [cell_state(c) for c in study.cells]
@@ -538,8 +547,8 @@ def write_report(study: Study, out: str, bench: list[str], force: bool, log: Cal
         raise StudyError(f"no finished cell in {study.out_dir} yet; --status shows where the cells stand")
     argv = [*done, "--out", out, *itertools.chain.from_iterable(("--bench", b) for b in bench)]
     args = report.parse_args(argv + (["--force"] if force else []))
-    command = shlex.join(["python", "-m", "swim_jax.study", os.path.relpath(study.path), "--out-dir", study.out_dir,
-                          "--report", out])
+    command = shlex.join(command or ["python", "-m", "swim_jax.study", os.path.relpath(study.path),
+                                     "--out-dir", study.out_dir, "--report", out])
     try:
         report.check_out(out, force)
         files = report.build(args, command)
@@ -547,7 +556,8 @@ def write_report(study: Study, out: str, bench: list[str], force: bool, log: Cal
         raise StudyError(str(e)) from None
     text = files["REPORT.md"]
     head, sep, rest = text.partition("\n## ")
-    files["REPORT.md"] = head + "\n" + study_section(study, states) + sep + rest if sep else text + "\n" + study_section(study, states)
+    section = study_section(study, states, trained)
+    files["REPORT.md"] = head + "\n" + section + sep + rest if sep else text + "\n" + section
     files["study.json"] = json.dumps({
         "study": study.path, "name": study.name, "out_dir": study.out_dir,
         "cells": [{"name": s.cell.name, "state": s.state, "step": s.step, "wall_s": s.wall_s,
@@ -586,7 +596,10 @@ def curate(study: Study, out: str, bench: list[str], log: Callable[[str], None] 
         os.replace(dst + ".partial", dst)
         log(f"{c.name}: copied to {dst} (without {', '.join(CURATE_SKIPS)})")
     curated = load(study.path, out)
-    return write_report(curated, os.path.join(out, "report"), bench, force=True, log=log)
+    command = ["python", "-m", "swim_jax.study", os.path.relpath(study.path), "--out-dir", study.out_dir,
+               "--curate", out]
+    return write_report(curated, os.path.join(out, "report"), bench, force=True, log=log, trained=study,
+                        command=command)
 
 
 def slurm_script(study: Study, cpus: int, hours: int, python: str = sys.executable) -> str:
