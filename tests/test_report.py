@@ -309,31 +309,32 @@ def _write_matmul_products(run_dir, dtype):
 def test_matmul_products_differing_between_machines_are_warned(tmp_path, capsys):
     """Same config (matmul_dtype: auto) resolved to bfloat16 on one machine and float32 on another:
     the budget table names each activation's products and the report warns; agreeing runs get one
-    dtype and no warning; folders without timing.json get "?"."""
+    dtype and no warning; runs that multiplied in their precision (or record nothing) keep the plain
+    precision, as reports before the products were recorded."""
     runs = tmp_path / "runs"
     runs.mkdir()
     swim, swish = write_run(runs, "swim", act="swim"), write_run(runs, "swish", act="swish", returns=SWISH)
     out = tmp_path / "none"
     assert run_report([swim, swish, "--out", out, "--n-boot", "200"], capsys)[0] == 0
     md = (out / "REPORT.md").read_text()
-    assert "| float32 | ? |" in md and "dtype of their matmul products" not in md
+    assert "| 5 | Swim 2, Swish 2 | float32 |" in md and "dtype of their matmul products" not in md
     _write_matmul_products(swim, "float32")
     _write_matmul_products(swish, "bfloat16")
     out = tmp_path / "mixed"
     assert run_report([swim, swish, "--out", out, "--n-boot", "200"], capsys)[0] == 0
     md = (out / "REPORT.md").read_text()
-    assert "| float32 | Swim float32, Swish bfloat16 |" in md
+    assert "| float32; products: Swim float32, Swish bfloat16 |" in md
     assert "dtype of their matmul products (timing.json matmul_dtype): swim float32, swish bfloat16" in md
     warned = json.loads((out / "results.json").read_text())
     walker_json = warned["envs"]["Walker2d-v5"]
     assert any("matmul products" in w for w in walker_json["warnings"])
-    assert {a: c["matmul_products"] for a, c in walker_json["curves"].items()} == {"swim": ["float32"],
-                                                                                   "swish": ["bfloat16"]}
+    assert {a: c.get("matmul_products") for a, c in walker_json["curves"].items()} == {"swim": None,
+                                                                                       "swish": ["bfloat16"]}
     _write_matmul_products(swim, "bfloat16")
     out = tmp_path / "same"
     assert run_report([swim, swish, "--out", out, "--n-boot", "200"], capsys)[0] == 0
     md = (out / "REPORT.md").read_text()
-    assert "| float32 | bfloat16 |" in md and "dtype of their matmul products" not in md
+    assert "| float32, bfloat16 products |" in md and "dtype of their matmul products" not in md
 
 
 def test_incomplete_runs_refused_or_truncated(tmp_path, walker, capsys):

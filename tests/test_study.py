@@ -136,6 +136,13 @@ def finished(interrupted):
     path, s = interrupted
     before = {n: open(os.path.join(s.cells[0].run_dir, n), "rb").read()
               for n in ("evaluations.csv", "final_policy.npz", "timing.json", "provenance.json")}
+    # cell 1's first stretch as if another CPU had run it: the other products than this one's
+    prov1 = os.path.join(s.cells[1].run_dir, provenance.FILENAME)
+    entries = json.load(open(prov1))
+    here = json.load(open(os.path.join(s.cells[0].run_dir, "timing.json")))["matmul_dtype"]
+    assert [e["matmul_dtype"] for e in entries] == [here]  # each stretch records its products
+    entries[-1]["matmul_dtype"] = "float32" if here == "bfloat16" else "bfloat16"
+    json.dump(entries, open(prov1, "w"))
     res = cli(path, "--parallel", "2")
     return path, s, res, before
 
@@ -154,6 +161,10 @@ def test_study_skips_resumes_and_starts(finished):
     log1 = open(os.path.join(s.cells[1].run_dir, study.LOG_FILE)).read()
     assert "hopper_relu: resuming" in log1 and f"resumed {s.cells[1].run_dir} at step 1000" in log1
     assert [e["step"] for e in provenance.read(s.cells[1].run_dir)] == [0, 1000]
+    # the resumed stretch multiplies in this CPU's products and says that they changed
+    first, second = (e["matmul_dtype"] for e in provenance.read(s.cells[1].run_dir))
+    assert second == json.load(open(os.path.join(s.cells[1].run_dir, "timing.json")))["matmul_dtype"] != first
+    assert f"warning: this stretch multiplies in {second}, the run's last one in {first}" in log1
     assert "hopper_swish: starting" in open(os.path.join(s.cells[2].run_dir, study.LOG_FILE)).read()
     assert [e["step"] for e in provenance.read(s.cells[2].run_dir)] == [0]
     for c in s.cells:
@@ -174,6 +185,10 @@ def test_full_report(finished, tmp_path):
     assert "## The study" in text and "Partial study" not in text and "pools the **3 finished**" in text
     assert "Table II" in text and os.path.isfile(os.path.join(out, "figure4.png"))
     assert "--cell hopper_swish" in text
+    # cell 1's stretches multiplied in different dtypes (the finished fixture): its row and a warning say so
+    first, second = (e["matmul_dtype"] for e in provenance.read(s.cells[1].run_dir))
+    assert f"| {first}→{second} |" in next(line for line in text.splitlines() if line.startswith("| hopper_relu |"))
+    assert "runs differ in the dtype of their matmul products" in text
 
 
 def test_provenance_of_a_cell(finished):

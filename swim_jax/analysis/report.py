@@ -224,15 +224,17 @@ def render_markdown(nums: Numbers, score: str, n_boot: int, boot_seed: int, comm
     return "\n".join(L) + _sweep_section(nums.series)
 
 
-def _matmul_products_cell(g: EnvGroup) -> str:
-    """The dtype the env's runs multiplied in (timing.json): one dtype when all agree, else per
-    activation; "?" when no run records it."""
-    per_act = {a: "+".join(c.matmul_products) for a, c in g.curves.items() if c.matmul_products}
-    if not per_act:
-        return "?"
-    if len(set(per_act.values())) == 1 and len(per_act) == len(g.curves):
-        return next(iter(per_act.values()))
-    return ", ".join(f"{_name(a)} {d}" for a, d in per_act.items())
+def _precision_cell(g: EnvGroup, precision: str) -> str:
+    """The env's precision, and its runs' matmul products (timing.json / provenance.json) where they
+    are not that precision: ``"float32, bfloat16 products"`` when all runs agree, else per
+    activation (``"float32; products: Swim float32, Swish bfloat16"``)."""
+    per_act = {a: c.matmul_products for a, c in g.curves.items() if c.matmul_products}
+    if all(ds == [precision] for ds in per_act.values()):
+        return precision
+    shown = {a: "+".join(ds) for a, ds in per_act.items()}
+    if len(set(shown.values())) == 1 and len(shown) == len(g.curves):
+        return f"{precision}, {next(iter(shown.values()))} products"
+    return f"{precision}; products: " + ", ".join(f"{_name(a)} {d}" for a, d in shown.items())
 
 
 def _budget_section(groups: dict[str, EnvGroup], configs: dict[str, dict]) -> list[str]:
@@ -249,9 +251,8 @@ def _budget_section(groups: dict[str, EnvGroup], configs: dict[str, dict]) -> li
         if g.truncated_to_step is not None:
             steps += f" (truncated to {g.truncated_to_step:,}: incomplete runs)"
         rows.append([env, steps, str(g.eval_freq), str(cfg.get("eval_episodes", "?")), seeds,
-                     str(cfg.get("precision", "?")), _matmul_products_cell(g)])
-    L += [_md_table(["env", "steps per run", "eval every", "episodes per eval", "seeds", "precision",
-                     "matmul products"], rows), ""]
+                     _precision_cell(g, str(cfg.get("precision", "?")))])
+    L += [_md_table(["env", "steps per run", "eval every", "episodes per eval", "seeds", "precision"], rows), ""]
     small = [env for env, g in groups.items() if g.total_steps < pb["total_steps"]
              or min(c.n_seeds for c in g.curves.values()) < pb["seeds"]]
     if small:
@@ -476,7 +477,9 @@ def results_dict(nums: Numbers, score: str, n_boot: int, boot_seed: int) -> dict
                 "total_steps": g.total_steps, "eval_freq": g.eval_freq, "truncated_to_step": g.truncated_to_step,
                 "steps": [int(s) for s in g.steps], "warnings": g.warnings,
                 "curves": {a: {"mean": c.returns.mean(axis=1).tolist(), "std": c.returns.std(axis=1).tolist(),
-                               "matmul_products": c.matmul_products}
+                               # the runs' matmul products, where they are not the env's precision
+                               **({"matmul_products": c.matmul_products}
+                                  if c.matmul_products and c.matmul_products != [str(nums.configs[env].get("precision"))] else {})}
                            for a, c in g.curves.items()},
                 "table2": t2[env], "improvement_pct": nums.imp.get(env),
                 "comparisons": {pair: {s: comp(c) for s, c in by.items()} for pair, by in comps[env].items()},

@@ -36,7 +36,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import yaml
 
-from swim_jax.io import learning_log
+from swim_jax.io import learning_log, provenance
 from swim_jax.activations import ACTIVATIONS, ActivationSetting, label_activation, parameter_defaults
 
 POOL_IGNORED_KEYS = frozenset({"seeds", "first_seed", "seed", "name", "out_dir", "keep_checkpoints",
@@ -179,9 +179,14 @@ def load_run(path: str) -> Run:
 
 
 def read_matmul_products(path: str) -> str | None:
-    """The dtype the run's matmul products ran in, as its ``timing.json`` records it (``matmul_dtype``:
-    what ``matmul_dtype=auto`` resolved to on the machine that trained it, e.g. ``bfloat16`` on a CPU
-    with AMX, ``float32`` on one without); None for a folder without one (unfinished, or older)."""
+    """The dtype the run's matmul products ran in: what ``matmul_dtype=auto`` resolved to on the
+    machine of each stretch (bfloat16 on a CPU with AMX / AVX-512 BF16, float32 elsewhere), from
+    ``provenance.json`` (one per start/resume; consecutive repeats merged, a change written
+    ``"bfloat16→float32"``), else from ``timing.json`` (folders written before the stretches recorded
+    it: the last stretch's); None when neither records it."""
+    stretches = [e["matmul_dtype"] for e in provenance.read(path) if isinstance(e.get("matmul_dtype"), str)]
+    if stretches:
+        return "→".join(d for i, d in enumerate(stretches) if i == 0 or d != stretches[i - 1])
     try:
         with open(os.path.join(path, "timing.json")) as f:
             value = json.load(f).get("matmul_dtype")

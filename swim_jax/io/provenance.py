@@ -8,7 +8,9 @@ and machine even when a run was resumed on another machine or commit::
      "git": {"commit": "<40 hex>", "dirty": false} (null outside a git checkout),
      "packages": {"jax": "0.10.2", "jaxlib": ..., "mujoco": ..., "mujoco-mjx": ..., "flax": ...,
                   "optax": ..., "orbax-checkpoint": ...},
-     "python": "3.11.7", "cpu": "AMD EPYC (family 25, model 1)", "cores": 2}
+     "python": "3.11.7", "cpu": "AMD EPYC (family 25, model 1)", "cores": 2,
+     "matmul_dtype": "bfloat16"}  (what the stretch's products ran in; written by swim_jax.run.train
+                                   since 2026-12-04, absent in older entries)
 
 The file is a JSON list; :func:`record` appends an entry (the entries before it are kept).
 """
@@ -88,10 +90,11 @@ def read(run_dir: str) -> list[dict]:
     return data if isinstance(data, list) else [data]
 
 
-def record(run_dir: str, step: int, argv: list[str] | None = None) -> dict:
-    """Append :func:`entry` for ``step`` to ``run_dir``'s provenance.json (written whole through a
+def record(run_dir: str, step: int, argv: list[str] | None = None, facts: dict | None = None) -> dict:
+    """Append :func:`entry` for ``step``, plus ``facts`` (what the caller resolved for this stretch,
+    e.g. ``{"matmul_dtype": "bfloat16"}``), to ``run_dir``'s provenance.json (written whole through a
     temporary file, so a kill leaves the old file or the new one); returns the entry."""
-    e = entry(step, argv)
+    e = {**entry(step, argv), **(facts or {})}
     entries = read(run_dir) + [e]
     path = os.path.join(run_dir, FILENAME)
     with open(path + ".tmp", "w") as f:

@@ -133,6 +133,12 @@ def run(cfg: Config, run_dir: str, resume: bool = False, log: Callable[[str], No
         jax.config.update("jax_enable_x64", previous_x64)
 
 
+def products_dtype(prog) -> str:
+    """The dtype the program's Dense products run in ("bfloat16", or the run's precision): what
+    ``matmul_dtype`` resolved to here; recorded in timing.json and each stretch's provenance entry."""
+    return jnp.dtype(prog.agent.matmul_dtype or prog.agent.dtype).name
+
+
 def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
          say: Heartbeat, closing: contextlib.ExitStack, physics_why: str = "") -> RunResult:
     """The training loop: build the program, start (from the newest checkpoint when resuming),
@@ -161,7 +167,12 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
         log(f"resumed {run_dir} at step {restored}")
     folder.start_logs(restored, closing)  # cut after that checkpoint, or (none) started afresh
     if folder.writes:
-        provenance.record(run_dir, restored or 0)  # code, packages, CPU and command of this stretch
+        products = products_dtype(prog)
+        before = [e["matmul_dtype"] for e in provenance.read(run_dir) if "matmul_dtype" in e]
+        if before and before[-1] != products:
+            log(f"warning: this stretch multiplies in {products}, the run's last one in {before[-1]} "
+                f"(matmul_dtype={cfg.matmul_dtype} resolves per CPU; provenance.json records each stretch)")
+        provenance.record(run_dir, restored or 0, facts={"matmul_dtype": products})  # code, packages, CPU, command
     if restored is None:
         states = _initial_states(cfg, prog, lanes, folder, evals, say)
         if resume:
@@ -376,7 +387,7 @@ def _timing(cfg: Config, prog: Programs, lanes: Lanes, evals: _Evaluations, cloc
                     else len(lanes.groups.devices) if lanes.groups is not None else 1),
         "lane_groups": lanes.groups.describe() if lanes.groups is not None else None,
         "processes": jax.process_count(),
-        "matmul_dtype": jnp.dtype(prog.agent.matmul_dtype or prog.agent.dtype).name,
+        "matmul_dtype": products_dtype(prog),
         "native_call": prog.env.native_physics.call if prog.env.native_physics is not None else None,
     }
 
