@@ -79,7 +79,7 @@ class Run:
     metrics: LearningMetrics | None = None  # from metrics.csv; None without one
     setting: ActivationSetting | None = None  # the activation the label names
     sweep_suffix: str = ""  # a sweep point's other swept values, "[tau=0.01]"; "" otherwise
-    matmul_products: str | None = None  # dtype its matmul products ran in (timing.json); None: not recorded
+    matmul_products: str | None = None  # dtype its matmul products ran in (read_matmul_products); None: not recorded
 
     @property
     def expected_evals(self) -> int:
@@ -104,7 +104,7 @@ class Curves:
     runs_without_metrics: list = field(default_factory=list)  # paths
     setting: ActivationSetting | None = None
     sweep_suffix: str = ""
-    matmul_products: list = field(default_factory=list)  # sorted dtypes of its runs' products (timing.json)
+    matmul_products: list = field(default_factory=list)  # sorted dtypes of its runs' products (read_matmul_products)
 
     @property
     def n_seeds(self) -> int:
@@ -430,12 +430,14 @@ def _cross_activation_differences(by_act: dict[str, list[Run]]) -> list[str]:
 
 
 def _matmul_products_differences(by_act: dict[str, list[Run]]) -> list[str]:
-    """A warning when the runs of one env did not all multiply in the same dtype. The configs can agree
+    """A warning when the runs of one env did not all multiply in the same dtype (or one changed it
+    between stretches). The configs can agree
     (``matmul_dtype: auto``) while the machines resolved it differently (bfloat16 on a CPU with
     AMX / AVX-512 BF16, float32 elsewhere), which the config comparison cannot see."""
     per_act = {a: ds for a in sorted(by_act, key=_act_order)
                if (ds := sorted({r.matmul_products for r in by_act[a] if r.matmul_products}))}
-    if len({d for ds in per_act.values() for d in ds}) < 2:
+    values = {d for ds in per_act.values() for d in ds}
+    if len(values) < 2 and not any("→" in d for d in values):  # one dtype, and no run changed it
         return []
     listed = ", ".join(f"{a} {'+'.join(ds)}" for a, ds in per_act.items())
     return [f"runs differ in the dtype of their matmul products (timing.json matmul_dtype): {listed}; "
