@@ -26,7 +26,8 @@ state into :class:`Parts` once, :meth:`~GroupedChunks.step` them call after call
 each device works through its own queue; nothing waits between calls), and
 :meth:`~GroupedChunks.join` a whole-lane copy (on the first device) where the evaluation, the NaN
 check and the checkpoint read one; training goes on from the parts. The executables (each program
-on each device) are compiled before the first call, concurrently, so none is compiled while training.
+on each device) are ready before the first call, so none is compiled while training: each program
+is compiled once, for the first device, and loaded as a copy for the others.
 """
 
 from __future__ import annotations
@@ -38,6 +39,8 @@ from typing import Callable, Sequence
 import jax
 import jax.numpy as jnp
 import numpy as np
+
+from swim_jax.placement import executable_copies
 
 
 @dataclass(frozen=True)
@@ -132,6 +135,7 @@ class GroupedChunks:
         self._fn, self._piece_fn = fn, piece_fn
         self._piece_steps = steps_per_call // len(groups.devices)
         self._compiled: dict[tuple[str, int], object] = {}  # ("group" | "piece", device index) -> executable
+        self.copied = 0  # of those, loaded as a copy of the first device's (compiled once)
         self._split = _slices(tuple(groups.parts()))
 
     @property
@@ -208,22 +212,41 @@ class GroupedChunks:
         return jax.device_put(np.int32(t), self.groups.devices[device])
 
     def _compile_all(self, parts: Parts) -> None:
-        """Lower (here) and compile (in threads: XLA compiles without the GIL) every missing
-        executable: each group's on its device, the one-lane piece program on every device."""
+        """Compile every missing executable: each group's on its device, the one-lane piece program
+        on every device. Each program is lowered (here) and compiled (in threads: XLA compiles
+        without the GIL) for the first device only, and loaded for the others as a copy of that
+        machine code (swim_jax/placement/executable_copies.py); where a copy cannot be made (or
+        device 0's came from the persistent compilation cache), it is compiled for that device too."""
         D = len(self.groups.devices)
         t = np.int32(0)
-        todo = {}
-        for g in range(D):
-            if ("group", g) not in self._compiled:
-                spec = _specs(self.groups.devices[g])
-                todo[("group", g)] = self._fn.lower(spec(parts.states[g]), spec(t), *spec(parts.args[g]))
-        if self.groups.leftover:
-            for d in range(D):
-                if ("piece", d) not in self._compiled:
-                    spec = _specs(self.groups.devices[d])
-                    todo[("piece", d)] = self._piece_fn.lower(spec(parts.states[D]), spec(t), *spec(parts.args[D][d]))
-        if not todo:
+
+        def lowered(key: tuple[str, int]):
+            kind, d = key
+            spec = _specs(self.groups.devices[d])
+            if kind == "group":
+                return self._fn.lower(spec(parts.states[d]), spec(t), *spec(parts.args[d]))
+            return self._piece_fn.lower(spec(parts.states[D]), spec(t), *spec(parts.args[D][d]))
+
+        kinds = ["group"] + (["piece"] if self.groups.leftover else [])
+        missing = [(k, d) for k in kinds for d in range(D) if (k, d) not in self._compiled]
+        if not missing:
             return
         with concurrent.futures.ThreadPoolExecutor(max_workers=D) as pool:
-            done = {key: pool.submit(lowered.compile) for key, lowered in todo.items()}
-            self._compiled.update({key: f.result() for key, f in done.items()})
+            def compile_each(keys) -> dict:
+                done = {key: pool.submit(executable_copies.compile_noting_cache, lowered(key)) for key in keys}
+                results = {key: f.result() for key, f in done.items()}
+                self._compiled.update({key: compiled for key, (compiled, _) in results.items()})
+                return {key: from_cache for key, (_, from_cache) in results.items()}
+
+            from_cache = compile_each([(k, 0) for k in kinds if (k, 0) in missing])
+            uncopied = []
+            for kind, d in missing:
+                if d > 0:  # a copy of device 0's, unless that came from the persistent cache (a read then)
+                    copy = (None if from_cache.get((kind, 0), True) else
+                            executable_copies.copy_to_device(self._compiled[(kind, 0)], self.groups.devices[d]))
+                    if copy is None:
+                        uncopied.append((kind, d))
+                    else:
+                        self._compiled[(kind, d)] = copy
+                        self.copied += 1
+            compile_each(uncopied)

@@ -31,6 +31,7 @@ class OneProgram:
     def __init__(self, fn: Callable, sharding=None):
         self.fn, self.sharding = fn, sharding
         self._args: tuple = ()
+        self.copied = 0  # executables loaded as copies instead of compiled: none (see lane_groups)
 
     @property
     def executables(self) -> int:

@@ -364,8 +364,8 @@ def _chunks_left(cfg: Config, done: int) -> tuple[int, int]:
 def _timing(cfg: Config, prog: Programs, lanes: Lanes, evals: _Evaluations, clock: _Clock,
             resumed_from_chunk: int | None, stepper) -> dict:
     """``timing.json``: wall time, throughput (aggregate and per lane), compile counts
-    (``chunk_compiles``: the stepper's executables; lane groups compile all of theirs before the
-    first call)."""
+    (``chunk_compiles``: the stepper's executables; lane groups make all of theirs before the first
+    call, ``chunk_executables_copied`` of them as copies of another device's instead of compiling)."""
     P, S = len(lanes.layout.points), lanes.layout.seeds
     train_s = clock.train_s
     return {
@@ -381,6 +381,7 @@ def _timing(cfg: Config, prog: Programs, lanes: Lanes, evals: _Evaluations, cloc
         "total_steps": cfg.total_steps,
         "resumed_from_chunk": resumed_from_chunk,
         "chunk_compiles": stepper.executables,
+        "chunk_executables_copied": stepper.copied,
         "eval_compiles": prog.eval_fn._cache_size(),
         "platform": jax.devices()[0].platform,
         "devices": (jax.device_count() if lanes.sharding is not None
