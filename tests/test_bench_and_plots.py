@@ -492,6 +492,17 @@ def test_startup_bench_times_the_lines_of_a_real_process_and_stops_at_the_step()
     assert timed_lines([sys.executable, "-c", code], dict(os.environ), until_step=20000, timeout=2)["until_step_s"] is None
 
 
+@pytest.mark.parametrize("bad", [["--warm-runs", "0"], ["--until-step", "0"], ["--backends", "gpu"]])
+def test_startup_bench_bad_input_is_one_line_exit_2_and_runs_nothing(bad, tmp_path, capsys):
+    from swim_jax.bench import startup
+
+    with pytest.raises(SystemExit) as e:
+        startup.main([*bad, "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert e.value.code == 2 and len(err) == 1 and bad[0] in err[0], err
+    assert not (tmp_path / "out").exists()
+
+
 def test_checkpoint_bench_writes_both_kinds_and_restores(tmp_path, capsys):
     """bench checkpoint on a tiny buffer: both kinds timed per round, disk and restore times in the JSON."""
     from swim_jax import bench

@@ -3,7 +3,8 @@
 Runs the real command, ``python -m swim_jax.train config=<config> [--set ...]``, in a fresh
 process per candidate ``--backends`` × {cold, warm}: ``cold`` with empty caches (a new
 ``XDG_CACHE_HOME``: no JAX compilation cache, no built native library, as on a fresh machine),
-``warm`` right after it with the caches that run left. Each run is stopped once its progress line
+``warm`` right after it with the caches that run left (``--warm-runs N``: N such runs, ``warm 2``
+… each with the caches of all before it). Each run is stopped once its progress line
 for step ``--until-step`` is printed (or after ``--timeout`` seconds). Reported per run, from the
 moment the command was started: seconds to its first line, to its first progress line (the
 ``step N/...`` line of the first chunk) and to the ``--until-step`` line, and the longest silence
@@ -34,6 +35,8 @@ def _parser():
     p.add_argument("--backends", default="mujoco,mjx", help="env.backend values (default mujoco,mjx)")
     p.add_argument("--until-step", type=int, default=5000, help="stop after this step's progress line (default 5000)")
     p.add_argument("--timeout", type=float, default=1200.0, help="seconds per run at most (default 1200)")
+    p.add_argument("--warm-runs", type=int, default=1,
+                   help="warm runs after the cold one, each with the caches the runs before it left (default 1)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="extra config override (repeatable)")
     p.add_argument("--out", default=os.path.join("runs", "bench"), help="folder of the JSON result")
     return p
@@ -74,14 +77,14 @@ def main(argv: list[str] | None = None) -> int:
     bad = [b for b in backends if b not in ("mujoco", "mjx", "auto")]
     if bad or not backends:
         _parser().error(f"--backends {args.backends!r}: valid: auto, mjx, mujoco (comma-separated)")
-    if args.until_step < 1 or args.timeout <= 0:
-        _parser().error("--until-step and --timeout must be positive")
+    if args.until_step < 1 or args.timeout <= 0 or args.warm_runs < 1:
+        _parser().error("--until-step, --timeout and --warm-runs must be positive")
     runs = []
     for backend in backends:
         cache = tempfile.mkdtemp(prefix="bench-startup-cache-")
         out = tempfile.mkdtemp(prefix="bench-startup-runs-")
         try:
-            for kind in ("cold", "warm"):
+            for kind in ["cold", "warm"] + [f"warm {i}" for i in range(2, args.warm_runs + 1)]:
                 env = dict(os.environ, XDG_CACHE_HOME=cache, JAX_PLATFORMS="cpu", PYTHONUNBUFFERED="1")
                 env.pop("SWIM_JAX_NO_COMPILATION_CACHE", None)
                 cmd = [sys.executable, "-m", "swim_jax.train", f"config={args.config}", f"env.backend={backend}",
