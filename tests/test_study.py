@@ -9,6 +9,7 @@ resume 1 from its checkpoint and start 2.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
 import os
@@ -313,6 +314,13 @@ def test_curate_copies_finished_cells_without_checkpoints_and_reports_them(inter
     products = json.load(open(os.path.join(done[0].run_dir, "timing.json")))["matmul_dtype"]
     row = next(line for line in report_md.splitlines() if line.startswith(f"| {done[0].name} | done |"))
     assert f"| {products} |" in row and products in ("float32", "bfloat16")
+    # curated inside the working directory (as in the repository): inputs and the study file by
+    # paths relative to it, not by this machine's absolute ones
+    with contextlib.chdir(tmp_path):
+        assert study.main([path, "--curate", "curated"]) == 0
+    inside = (out / "report" / "REPORT.md").read_text()
+    assert f": `{os.path.join('curated', done[0].name)}`" in inside and str(out) not in inside
+    assert f"`{os.path.relpath(path, tmp_path)}`" in inside or f"`{path}`" in inside
     stamp = os.path.getmtime(out / done[0].name / "evaluations.csv")
     capsys.readouterr()
     assert study.main([path, "--curate", str(out)]) == 0

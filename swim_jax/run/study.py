@@ -394,6 +394,14 @@ def status_table(study: Study, parallel: int) -> str:
 # running cells
 # ------------------------------------------------------------------------------------------------
 
+def shown_path(path: str) -> str:
+    """``path`` as a report shows it: relative to the working directory when it lies inside it (a
+    curated report in the repository then names its inputs by repository paths, not this
+    machine's), else as given."""
+    rel = os.path.relpath(path)
+    return path if rel == os.pardir or rel.startswith(os.pardir + os.sep) else rel
+
+
 def cell_command(study: Study, key: str, python: str = sys.executable) -> list[str]:
     """The command that trains (or resumes, or skips when done) one cell of ``study``."""
     return [python, "-m", "swim_jax.study", study.path, "--out-dir", study.out_dir, "--cell", key]
@@ -512,7 +520,7 @@ def study_section(study: Study, states: list[CellState], trained: Study | None =
     trained = trained or study
     done = [s for s in states if s.state == "done"]
     lines = ["## The study", "",
-             f"Study file `{os.path.relpath(study.path)}` (`{study.name}`), {len(study.cells)} cells; "
+             f"Study file `{shown_path(study.path)}` (`{study.name}`), {len(study.cells)} cells; "
              f"this report pools the **{len(done)} finished**."]
     if len(done) < len(states):
         lines += ["", f"**Partial study**: {len(states) - len(done)} cell(s) not finished and left out: "
@@ -528,8 +536,9 @@ def study_section(study: Study, states: list[CellState], trained: Study | None =
     lines += ["", f"Code: {', '.join(_git_commits(done)) or 'unknown'} (git commit of every start or resume, "
               "provenance.json in each cell).", "",
               "Commands (each cell is resumable; the first runs them all):", "", "```",
-              shlex.join(["python", "-m", "swim_jax.study", os.path.relpath(trained.path), "--out-dir", trained.out_dir])]
-    lines += [shlex.join(["python", *cell_command(trained, c.name)[1:]]) for c in trained.cells]
+              shlex.join(["python", "-m", "swim_jax.study", shown_path(trained.path), "--out-dir", trained.out_dir])]
+    lines += [shlex.join(["python", *cell_command(dataclasses.replace(trained, path=shown_path(trained.path)), c.name)[1:]])
+              for c in trained.cells]
     lines += ["```", ""]
     return "\n".join(lines)
 
@@ -542,12 +551,12 @@ def write_report(study: Study, out: str, bench: list[str], force: bool, log: Cal
     from swim_jax.analysis import report
 
     states = [cell_state(c) for c in study.cells]
-    done = [s.cell.run_dir for s in states if s.state == "done"]
+    done = [shown_path(s.cell.run_dir) for s in states if s.state == "done"]
     if not done:
         raise StudyError(f"no finished cell in {study.out_dir} yet; --status shows where the cells stand")
     argv = [*done, "--out", out, *itertools.chain.from_iterable(("--bench", b) for b in bench)]
     args = report.parse_args(argv + (["--force"] if force else []))
-    command = shlex.join(command or ["python", "-m", "swim_jax.study", os.path.relpath(study.path),
+    command = shlex.join(command or ["python", "-m", "swim_jax.study", shown_path(study.path),
                                      "--out-dir", study.out_dir, "--report", out])
     try:
         report.check_out(out, force)
@@ -596,7 +605,7 @@ def curate(study: Study, out: str, bench: list[str], log: Callable[[str], None] 
         os.replace(dst + ".partial", dst)
         log(f"{c.name}: copied to {dst} (without {', '.join(CURATE_SKIPS)})")
     curated = load(study.path, out)
-    command = ["python", "-m", "swim_jax.study", os.path.relpath(study.path), "--out-dir", study.out_dir,
+    command = ["python", "-m", "swim_jax.study", shown_path(study.path), "--out-dir", study.out_dir,
                "--curate", out]
     return write_report(curated, os.path.join(out, "report"), bench, force=True, log=log, trained=study,
                         command=command)
