@@ -186,3 +186,54 @@ def test_bad_input_is_one_line_exit_2_nothing_written(make_args, message, policy
     assert sorted(os.listdir(tmp_path)) == before
     assert (tmp_path / "exists.json").read_text() == "{}"
 
+
+
+def test_ours_episodes_reruns_our_evaluation_program(policy_runs, capsys):
+    """--ours-episodes N: our side is N episodes of the run's own evaluation program on its final
+    policies: the recorded final evaluation's episodes first (the same reset keys, float64, MuJoCo
+    C), then more draws; in the table N per seed."""
+    from swim_jax.run.our_evaluation import our_episodes
+
+    run = policy_runs["f64"]
+    recorded = np.load(os.path.join(run.run_dir, "evaluations_episodes.npy"))[-1]  # [seeds, episodes]
+    n = run.cfg.eval_episodes
+    again = our_episodes(run.run_dir, n)
+    assert again.shape == recorded.shape == (run.cfg.seeds, n)
+    np.testing.assert_allclose(again, recorded, rtol=1e-12, atol=1e-9)
+    more = our_episodes(run.run_dir, n + 3)
+    assert more.shape == (run.cfg.seeds, n + 3) and np.all(np.isfinite(more))
+    # split(key, N)[e] does not depend on N (jax_threefry_partitionable): the recorded ones, extended
+    np.testing.assert_allclose(more[:, :n], recorded, rtol=1e-12, atol=1e-9)
+    assert not np.allclose(more[:, n:], more[:, :3])
+
+    rc = evaluate.main([run.run_dir, "--episodes", "3", "--ours-episodes", str(n + 3), "--json", os.devnull,
+                        "--force"], our_episodes=our_episodes)
+    out, err = capsys.readouterr()
+    assert rc == 0, err
+    rows = [line for line in out.splitlines() if line.startswith("| /")]
+    assert len(rows) == 2 and all(f"({n + 3}) |" in r for r in rows)
+    assert f"{more[0].mean():.2f} ({n + 3})" in rows[0] and f"{more[1].mean():.2f} ({n + 3})" in rows[1]
+
+
+@pytest.mark.parametrize("extra,message", [
+    (["--ours-episodes", "1"], "--ours-episodes must be >= 2"),
+    (["--ours-episodes", "5", "--step", "1000"], "--ours-episodes evaluates the final policies; drop --step and --export"),
+])
+def test_ours_episodes_bad_input_is_one_line_exit_2(extra, message, policy_runs, capsys):
+    with pytest.raises(SystemExit) as e:
+        evaluate.main([policy_runs["f64"].run_dir, *extra])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert e.value.code == 2 and len(err) == 1 and message in err[0], err
+
+
+def test_ours_episodes_refuses_sweep_points_and_needs_the_jax_side(policy_runs, capsys, tmp_path):
+    from swim_jax.run.our_evaluation import our_episodes
+
+    point = pol.run_folders(policy_runs["sweep"].run_dir)[0]
+    for argv, kwargs, message in (
+            ([point, "--ours-episodes", "4"], {"our_episodes": our_episodes}, "evaluates plain runs only"),
+            ([policy_runs["f64"].run_dir, "--ours-episodes", "4"], {}, "needs the JAX side")):
+        rc = evaluate.main([*argv, "--json", str(tmp_path / "t.json")], **kwargs)
+        err = capsys.readouterr().err.strip().splitlines()
+        assert rc == 2 and len(err) == 1 and message in err[0], err
+        assert not (tmp_path / "t.json").exists()

@@ -18,13 +18,20 @@ a mean of few episodes, so it can lie outside Gymnasium's (narrow) CI by its own
 difference whose CI excludes 0 (marked bold) is the sign of a fidelity problem to look into. Single
 episodes cannot be paired: a 1e-6 change in one action moves a HalfCheetah return by ~100.
 
+``--ours-episodes N`` replaces our side by N fresh episodes per seed of the run's own evaluation
+program on its final policies (swim_jax/run/our_evaluation.py: our env and physics, the run's
+precision and products, JAX needed), so that both sides of the difference are large samples: the
+first ``eval_episodes`` of them are the recorded episodes exactly, the rest extend them. Plain
+runs' final policies only (not with ``--step`` or sweep points).
+
 ``--json FILE`` also writes the table (every episode's return and length included);
 ``--export FILE.npz`` writes one seed's policy as weights plus a JSON header (``--seed N`` needed
 when the run has several seeds) instead of evaluating; README ("Trained policies outside the
 project") shows the NumPy lines that run such a file without this project.
 
 Exit status: 0 done; 2 bad input (missing run folder, no config.yaml, seed out of range, no policy at
-the step, no final policy and no --step, bad arguments, existing --json/--export without --force):
+the step, no final policy and no --step, bad arguments, existing --json/--export without --force,
+--ours-episodes with --step, --export or a sweep point):
 one line on stderr, nothing written.
 """
 
@@ -37,6 +44,7 @@ import os
 import sys
 import time
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
@@ -61,6 +69,7 @@ class Target:
     policy: Policy
     ours: np.ndarray | None  # our evaluation's episode returns at ``step`` (None: not recorded)
     ours_mean: float | None  # their mean (from evaluations.npy when the episodes are not stored)
+    ours_source: str = "recorded"  # "recorded" (the run's evaluation) or "re-evaluated" (--ours-episodes)
 
     @property
     def label(self) -> str:
@@ -153,6 +162,7 @@ def evaluate_row(t: Target, episodes: int, env_seed: int) -> dict:
         "policy": {"dtype": t.policy.dtype.name, "matmul": t.policy.matmul,
                    "source": "final_policy.npz" if t.run.final and t.step == t.run.total_steps else "checkpoint"},
         "ours": None if t.ours_mean is None else {
+            "source": t.ours_source,
             "mean": t.ours_mean, "episodes": None if t.ours is None else t.ours.tolist(),
             "n": None if t.ours is None else int(t.ours.size),
             "sd": None if t.ours is None or t.ours.size < 2 else float(t.ours.std(ddof=1))},
@@ -209,8 +219,16 @@ def parse_args(argv):
     p.add_argument("--json", default=None, metavar="FILE", help="also write the table as JSON")
     p.add_argument("--export", default=None, metavar="FILE.npz",
                    help="write the policy (one run folder, one seed) as a self-contained .npz instead of evaluating")
+    p.add_argument("--ours-episodes", type=int, default=None, metavar="N",
+                   help="our side: N fresh episodes per seed of the run's own evaluation program on its final "
+                        "policies (JAX), instead of the run's recorded evaluation (at least 2)")
     p.add_argument("--force", action="store_true", help="replace an existing --json/--export file")
     a = p.parse_args(argv)
+    if a.ours_episodes is not None:
+        if a.ours_episodes < 2:
+            p.error(f"--ours-episodes must be >= 2 (a confidence interval needs two episodes), got {a.ours_episodes}")
+        if a.step is not None or a.export is not None:
+            p.error("--ours-episodes evaluates the final policies; drop --step and --export")
     if a.seed != "all":
         try:
             a.seed = str(int(a.seed))
@@ -237,8 +255,25 @@ def _check_out(path: str | None, force: bool, flag: str) -> None:
         raise EvaluateError(f"{flag} {path}: folder {folder} does not exist")
 
 
-def main(argv=None) -> int:
-    """CLI entry point; returns the exit status (0 ok, 2 bad input with one line on stderr)."""
+def reevaluate(rows: list[Target], episodes: int, our_episodes: Callable[[str, int], np.ndarray]) -> None:
+    """Replace every row's ``ours`` by ``our_episodes(run folder, episodes)[seed position]`` (one
+    call per run folder). ``our_episodes`` raises ValueError (one line) for a folder it cannot
+    evaluate; that becomes :class:`EvaluateError`."""
+    done: dict[str, np.ndarray] = {}
+    for t in rows:
+        if t.run.path not in done:
+            try:
+                done[t.run.path] = our_episodes(t.run.path, episodes)
+            except ValueError as e:
+                raise EvaluateError(str(e)) from None
+        t.ours = done[t.run.path][t.run.seed_position(t.seed)]
+        t.ours_mean, t.ours_source = float(t.ours.mean()), "re-evaluated"
+
+
+def main(argv=None, our_episodes: Callable[[str, int], np.ndarray] | None = None) -> int:
+    """CLI entry point; returns the exit status (0 ok, 2 bad input with one line on stderr).
+    ``our_episodes``: what ``--ours-episodes`` runs (swim_jax/run/our_evaluation.py, passed in by
+    swim_jax/run/evaluate.py, the command's entry: this room stays free of JAX and of the run room)."""
     args = parse_args(sys.argv[1:] if argv is None else list(argv))
     try:
         _check_out(args.json, args.force, "--json")
@@ -249,6 +284,13 @@ def main(argv=None) -> int:
             raise EvaluateError(f"--export writes one policy; {len(rows)} match ({len(where)} run folder(s): "
                                 f"{', '.join(where)}; seeds {', '.join(str(t.seed) for t in rows)}): "
                                 f"give one run folder and --seed N")
+        if args.ours_episodes is not None:
+            if our_episodes is None:
+                raise EvaluateError("--ours-episodes needs the JAX side: run it as python -m swim_jax.evaluate")
+            t_ours = time.time()
+            reevaluate(rows, args.ours_episodes, our_episodes)
+            print(f"ours: {args.ours_episodes} episodes per seed of our own evaluation program in "
+                  f"{time.time() - t_ours:.0f} s")
     except EvaluateError as e:
         print(f"evaluate: error: {e}", file=sys.stderr)
         return 2
@@ -276,7 +318,8 @@ def main(argv=None) -> int:
         with open(args.json, "w") as f:
             json.dump({"command": "python -m swim_jax.evaluate " + " ".join(sys.argv[1:] if argv is None else argv),
                        "gymnasium": _version("gymnasium"), "mujoco": _version("mujoco"),
-                       "episodes": args.episodes, "env_seed": args.env_seed, "rows": table}, f, indent=1)
+                       "episodes": args.episodes, "env_seed": args.env_seed, "ours_episodes": args.ours_episodes,
+                       "rows": table}, f, indent=1)
             f.write("\n")
         print(f"evaluate: wrote {args.json}")
     return 0
