@@ -326,3 +326,26 @@ def test_curate_copies_finished_cells_without_checkpoints_and_reports_them(inter
     assert study.main([path, "--curate", str(out)]) == 0
     assert f"{done[0].name}: already in" in capsys.readouterr().out
     assert os.path.getmtime(out / done[0].name / "evaluations.csv") == stamp
+
+
+def test_a_curated_report_shows_uncopied_cells_as_they_stand_where_the_study_trains(interrupted, tmp_path):
+    """--curate: a cell not finished (so not copied) is listed with its state and step in the
+    study's own out_dir ("started", its checkpoint's step), not as "left" from the copies' folder."""
+    import shutil
+
+    path, s = interrupted
+    trained = tmp_path / "trained"
+    shutil.copytree(s.out_dir, trained, ignore=shutil.ignore_patterns(study.LOCK_FILE))
+    last = s.cells[1].name  # started (interrupted) or done (after the study ran): "started" once unfinished
+    if (trained / last / "final_policy.npz").exists():
+        os.remove(trained / last / "final_policy.npz")
+    data = yaml.safe_load(open(path))
+    copy = study.load(write_study(str(tmp_path), {**data, "out_dir": str(trained)}, "copy.yaml"))
+    st = study.cell_state(copy.cell(last))
+    assert st.state == "started" and st.step > 0  # its checkpoints are there
+    assert study.main([copy.path, "--curate", str(tmp_path / "curated")]) == 0
+    report_md = (tmp_path / "curated" / "report" / "REPORT.md").read_text()
+    assert not (tmp_path / "curated" / last).exists()
+    assert f"| {last} | started | {st.step} |" in report_md
+    assert f"(their state in {trained}): " in report_md and f"{last} (started, step {st.step})" in report_md
+

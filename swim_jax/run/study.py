@@ -519,11 +519,14 @@ def study_section(study: Study, states: list[CellState], trained: Study | None =
 
     trained = trained or study
     done = [s for s in states if s.state == "done"]
+    # a cell not (yet) among the copies: how it stands where the study trains it
+    states = [s if s.state == "done" or trained is study else cell_state(trained.cell(s.cell.name)) for s in states]
     lines = ["## The study", "",
              f"Study file `{shown_path(study.path)}` (`{study.name}`), {len(study.cells)} cells; "
              f"this report pools the **{len(done)} finished**."]
     if len(done) < len(states):
-        lines += ["", f"**Partial study**: {len(states) - len(done)} cell(s) not finished and left out: "
+        where = "" if trained is study else f" (their state in {trained.out_dir})"
+        lines += ["", f"**Partial study**: {len(states) - len(done)} cell(s) not finished and left out{where}: "
                   + ", ".join(f"{s.cell.name} ({s.state}, step {s.step})" for s in states if s.state != "done") + "."]
     lines += ["", "| cell | state | steps | wall time (last stretch) | CPU | matmul products | code |",
               "|---|---|---|---|---|---|---|"]
