@@ -3,6 +3,8 @@ the package moved into rooms; its README says how) is reported, loaded and resum
 
 - the report of it is byte for byte the one the old code wrote (REPORT.md, results.json);
 - its policy loads (final_policy.npz and the checkpoint at 3000 give the same actor);
+- it pools with a run today's code trains of the same command with two more seeds (one experiment
+  of four seeds in the report);
 - resumed from its checkpoint at 2000, today's code rebuilds the buffer from the old replay
   segments and finishes the run: evaluations, metrics and final policy byte for byte the old run's
   on the CPU model and core count that wrote it (another CPU may round float32 products otherwise,
@@ -54,6 +56,32 @@ def test_an_old_folders_policy_loads_from_its_final_file_and_its_checkpoint():
         np.testing.assert_array_equal(a(obs), b(obs))
         assert a(obs).shape == (2, 3) and np.all(np.abs(a(obs)) <= 1)
     assert final["params/body/head/bias"].shape[0] == 2
+
+
+def test_an_old_folder_pools_with_a_new_run_of_the_same_experiment(tmp_path):
+    """Seeds 2 and 3 of the old folder's command (its README), trained by today's code in a process of
+    its own, pool with the old folder's seeds 0 and 1 as one experiment: the report's Table II is
+    NumPy's mean / population std over the four seeds' evaluations side by side."""
+    old = _copy(tmp_path)
+    new_out = tmp_path / "new"
+    cmd = [sys.executable, "-m", "swim_jax.train", "config=hopper_relu", "seeds=2", "first_seed=2",
+           "total_steps=3000", "eval_freq=1000", "learning_starts=1000", "eval_episodes=3", "replay_size=3000",
+           "agent.hidden=[32,32]", "agent.batch_size=32", "matmul_dtype=full", "keep_checkpoints=3",
+           f"out_dir={new_out}"]
+    done = subprocess.run(cmd, capture_output=True, text=True, cwd=REPO, timeout=900)
+    assert done.returncode == 0, done.stdout + done.stderr
+    (new,) = [str(new_out / d) for d in os.listdir(new_out)]
+    assert report.main([old, new, "--out", str(tmp_path / "rep")]) == 0
+    with open(tmp_path / "rep" / "results.json") as f:
+        row = json.load(f)["envs"]["Hopper-v5"]["table2"]["relu"]
+    returns = np.concatenate([np.load(os.path.join(old, "evaluations.npy")),
+                              np.load(os.path.join(new, "evaluations.npy"))], axis=1).astype(np.float64)
+    assert returns.shape == (4, 4) and row["seeds"] == 4 and len(row["runs"]) == 2
+    mean = returns.mean(axis=1)
+    best = int(np.argmax(mean))
+    assert row["max_step"] == 1000 * best
+    np.testing.assert_allclose([row["max_mean"], row["max_std"], row["final_mean"], row["final_std"]],
+                               [mean[best], returns[best].std(), mean[-1], returns[-1].std()], rtol=1e-12)
 
 
 def test_an_old_folder_resumes_from_its_checkpoint(tmp_path):

@@ -124,19 +124,19 @@ def _candidates(lanes: list[int], variant_cfgs: dict, shard: str) -> list[tuple]
     return candidates
 
 
-def _row(c, times: list[float], compile_s: float, one_lane_s, chunk_steps: int, flops: float,
+def _row(c, stepper, times: list[float], compile_s: float, one_lane_s, chunk_steps: int, flops: float,
          roof, executables: int, added: int) -> dict:
-    """One table row: medians and rates of candidate ``c`` = (lanes, sharding, variant, groups) from its
-    chunk times; ``one_lane_s``: the median chunk time of the 1-lane program of its variant (or
+    """One table row: medians and rates of candidate ``c`` = (lanes, sharding, variant, groups), run
+    by ``stepper``, from its chunk times; ``one_lane_s``: the median chunk time of the 1-lane program of its variant (or
     None); ``executables``/``added``: its chunk's compiled executables and those added while timing."""
-    L, sh, v, groups = c
+    L, v = c[0], c[2]
     t = timing.summarise(times)
     med = t.median
     rate = flops * chunk_steps * L / med / 1e9
     return {
         "lanes": L, "variant": v,
-        "devices": len(sh.mesh.devices.flat) if sh is not None else len(groups.devices) if groups is not None else 1,
-        "lane_groups": groups.describe() if groups is not None else None,
+        "devices": stepper.devices,
+        "lane_groups": stepper.lane_groups,
         "median_s": med, "min_s": t.min, "max_s": t.max, "chunk_s": list(times),
         "env_steps_per_s": chunk_steps * L / med, "env_steps_per_s_per_lane": chunk_steps / med,
         "ms_per_step": 1000 * med / chunk_steps, "compile_plus_first_chunk_s": compile_s,
@@ -206,7 +206,7 @@ def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overr
         st = steppers[c].split(st, ())  # with lane groups, compiles every group's program
         states[c] = run_chunk(c, st, 0)
         compile_s[c] = time.perf_counter() - t0
-        how = " sharded" if sh else f" as {groups.describe()}" if groups else ""
+        how = " sharded" if sh else f" as {steppers[c].lane_groups}" if groups else ""
         log(f"lanes {L}{how}{' ' + v if v else ''}: compiled + first chunk {compile_s[c]:.1f} s")
     # one jitted chunk serves every lane count and placement of a config (one executable each)
     def executables(c):  # compiled chunk executables of candidate c (its groups' are all made before chunk 0)
@@ -226,7 +226,7 @@ def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overr
     for c in candidates:
         if c[0] == 1 and c[2] not in one:
             one[c[2]] = timing.summarise(times[c]).median
-    rows = [_row(c, times[c], compile_s[c], one.get(c[2]), chunk_steps, flops, roof,
+    rows = [_row(c, steppers[c], times[c], compile_s[c], one.get(c[2]), chunk_steps, flops, roof,
                  executables(c), executables(c) - warm_sizes[c])
             for c in candidates]
     base = variant_cfgs[""]

@@ -144,6 +144,16 @@ class GroupedChunks:
         any that calling ``fn`` itself compiled: none, when the groups alone call it)."""
         return len(self._compiled) + self._fn._cache_size()
 
+    @property
+    def devices(self) -> int:
+        """Devices the lanes run on: one per group."""
+        return len(self.groups.devices)
+
+    @property
+    def lane_groups(self) -> str:
+        """The groups in words (:meth:`LaneGroups.describe`)."""
+        return self.groups.describe()
+
     def split(self, states, args: tuple) -> Parts:
         """``states`` (whole-lane) and ``args`` as :class:`Parts`, each on the device that runs it
         first. Compiles, on first use, every executable the parts need."""

@@ -12,6 +12,9 @@ per core). Both are steppers with the same five methods, so the run loop, the ch
 * ``join(parts) -> states``: the whole-lane state where the evaluation, the NaN check and the
   checkpoint read it (training goes on from ``parts``);
 * ``join_metrics(metrics, merge)``: one call's metrics (host arrays) as one pytree, lanes in order.
+
+and two facts for the run's ``timing.json`` and the benchmarks: ``devices`` (how many devices the
+lanes run on) and ``lane_groups`` (the groups in words, None for one program).
 """
 
 from __future__ import annotations
@@ -37,6 +40,13 @@ class OneProgram:
     def executables(self) -> int:
         """Compiled executables of ``fn`` (one, after the first call, for every call that follows)."""
         return self.fn._cache_size()
+
+    @property
+    def devices(self) -> int:
+        """Devices the lanes run on: every device of the sharding's mesh, or one."""
+        return len(self.sharding.mesh.devices.flat) if self.sharding is not None else 1
+
+    lane_groups = None  # one program: no groups
 
     def split(self, states, args: tuple):
         self._args = tuple(args)

@@ -384,9 +384,8 @@ def _timing(cfg: Config, prog: Programs, lanes: Lanes, evals: _Evaluations, cloc
         "chunk_executables_copied": stepper.copied,
         "eval_compiles": prog.eval_fn._cache_size(),
         "platform": jax.devices()[0].platform,
-        "devices": (jax.device_count() if lanes.sharding is not None
-                    else len(lanes.groups.devices) if lanes.groups is not None else 1),
-        "lane_groups": lanes.groups.describe() if lanes.groups is not None else None,
+        "devices": stepper.devices,
+        "lane_groups": stepper.lane_groups,
         "processes": jax.process_count(),
         "matmul_dtype": products_dtype(prog),
         "native_call": prog.env.native_physics.call if prog.env.native_physics is not None else None,
