@@ -26,18 +26,6 @@ def _x64_mode_restored_after_every_test():
     jax.config.update("jax_enable_x64", prev)
 
 
-# Parallel workers (pytest-xdist, ``-n auto --dist loadgroup`` in pyproject.toml): each test file is
-# one unit of work, so its module fixtures (a compiled training run) are built once, on one worker;
-# files that share a session fixture go together, so it is built once too.
-SHARED_SESSION_FIXTURE = {"test_policy.py": "policy_runs", "test_evaluate.py": "policy_runs"}
-
-
-def pytest_collection_modifyitems(config, items):
-    for item in items:
-        name = item.path.name
-        item.add_marker(pytest.mark.xdist_group(SHARED_SESSION_FIXTURE.get(name, name)))
-
-
 @pytest.fixture
 def x64():
     """JAX x64 mode (float64 arrays; envs built now get float64 physics) for one test, then the
