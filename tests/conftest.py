@@ -26,19 +26,6 @@ def _x64_mode_restored_after_every_test():
     jax.config.update("jax_enable_x64", prev)
 
 
-# The files that take longest (their compiles), first: with one worker per core (pytest-xdist,
-# ``-n auto --dist loadfile`` in pyproject.toml) each file is one unit of work handed out in this
-# order, so no long file starts last while the other worker has nothing left (longest first).
-LONGEST_FIRST = ("test_sweep.py", "test_envs_equivalence_f64.py", "test_envs_equivalence.py", "test_train.py",
-                 "test_agents.py", "test_study.py", "test_compat.py", "test_distributed.py", "test_lane_groups.py",
-                 "test_policy.py", "test_evaluate.py")
-
-
-def pytest_collection_modifyitems(config, items):
-    rank = {name: i for i, name in enumerate(LONGEST_FIRST)}
-    items.sort(key=lambda item: rank.get(item.path.name, len(rank)))  # stable: files keep their own order
-
-
 @pytest.fixture
 def x64():
     """JAX x64 mode (float64 arrays; envs built now get float64 physics) for one test, then the
