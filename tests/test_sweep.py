@@ -29,7 +29,7 @@ from swim_jax.run.render import RenderError, load_policy
 TINY = ["seeds=2", "total_steps=3000", "eval_freq=1000", "learning_starts=1000", "eval_episodes=3",
         "replay_size=5000", "agent.hidden=[16,16]", "agent.batch_size=32", "agent.activation.learnable=true",
         "env.backend=mjx"]  # the MJX backend's training program, end to end (tests/test_train.py: MuJoCo C);
-# HalfCheetah's, whose MJX programs compile faster than Hopper's (docs/PERFORMANCE.md: default-tests-wall)
+# HalfCheetah's, whose MJX programs compile faster than Hopper's (docs/notebook/tests-2026-12-06.md)
 KS = (0.5, 1.0)
 
 
