@@ -17,7 +17,7 @@ use_compilation_cache()
 
 
 @pytest.fixture(autouse=True)
-def _x64_mode_restored_after_every_test():
+def restore_x64():
     """Every test ends in the x64 mode it started in, whatever it (or the code it runs, e.g.
     ``programs.programs`` of a float64 config) switched: tests do not depend on their order, which
     differs between one process and the workers of ``pytest -n``."""
@@ -28,21 +28,9 @@ def _x64_mode_restored_after_every_test():
 
 @pytest.fixture
 def x64():
-    """JAX x64 mode (float64 arrays; envs built now get float64 physics) for one test, then the
-    previous mode again, so the rest of the session keeps float32."""
-    prev = jax.config.jax_enable_x64
+    """JAX x64 mode (float64 arrays; envs built now get float64 physics) for one test; the previous
+    mode comes back after it (:func:`restore_x64`), so the rest of the session keeps float32."""
     jax.config.update("jax_enable_x64", True)
-    yield
-    jax.config.update("jax_enable_x64", prev)
-
-
-@pytest.fixture
-def restore_x64():
-    """The x64 mode before the test, restored after it whatever the code under test switched
-    (e.g. a ``precision=float64`` config)."""
-    prev = jax.config.jax_enable_x64
-    yield
-    jax.config.update("jax_enable_x64", prev)
 
 
 # --------------------------------------------------------------------------- trained policies

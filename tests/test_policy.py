@@ -194,7 +194,7 @@ def observations(n=50, seed=5):
     return np.random.default_rng(seed).normal(size=(n, OBS_SIZE)) * 2
 
 
-def test_load_policy_of_a_learnable_float64_run_equals_its_jax_actor(policy_runs, restore_x64):
+def test_load_policy_of_a_learnable_float64_run_equals_its_jax_actor(policy_runs):
     res = policy_runs["f64"]
     obs = observations()
     for pos, seed in enumerate((0, 1)):
@@ -207,7 +207,7 @@ def test_load_policy_of_a_learnable_float64_run_equals_its_jax_actor(policy_runs
         assert policy.source == {"run": os.path.abspath(res.run_dir), "seed": seed, "step": 2000}
 
 
-def test_load_policy_of_sweep_points_uses_each_points_value(policy_runs, restore_x64):
+def test_load_policy_of_sweep_points_uses_each_points_value(policy_runs):
     """The sweep's points (float32, bfloat16 matmuls): each point's beta from its config.yaml, as the
     lane's swept value in our evaluation; the sweep folder itself is refused with its points."""
     res = policy_runs["sweep"]
@@ -247,7 +247,7 @@ def checkpoint_actor_by_structure(res, step: int, lane: int):
     return unflatten({n: np.asarray(out[k])[lane] for n, k in zip(names, keys)})
 
 
-def test_load_policy_at_a_checkpoint_step(policy_runs, restore_x64):
+def test_load_policy_at_a_checkpoint_step(policy_runs):
     res = policy_runs["f64"]
     obs = observations()
     run = pol.run_policies(res.run_dir)

@@ -562,7 +562,7 @@ def test_programs_are_rebuilt_for_each_matmul_setting():
     assert programs(tiny("seeds=5", "matmul_dtype=full")) is plain  # seeds only change the lane shapes
 
 
-def test_float64_precision_builds_everything_in_float64(restore_x64):
+def test_float64_precision_builds_everything_in_float64():
     """precision=float64: env physics, observations, params, Adam state and replay are all f64
     (init program only; the full f64 chunk compiles too slowly for the default run)."""
     cfg = tiny("precision=float64", "seeds=2", "replay_size=100")
