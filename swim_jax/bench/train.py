@@ -125,10 +125,11 @@ def _candidates(lanes: list[int], variant_cfgs: dict, shard: str) -> list[tuple]
 
 
 def _row(c, stepper, times: list[float], compile_s: float, one_lane_s, chunk_steps: int, flops: float,
-         roof, executables: int, added: int) -> dict:
+         roof, executables_before: int) -> dict:
     """One table row: medians and rates of candidate ``c`` = (lanes, sharding, variant, groups), run
     by ``stepper``, from its chunk times; ``one_lane_s``: the median chunk time of the 1-lane program of its variant (or
-    None); ``executables``/``added``: its chunk's compiled executables and those added while timing."""
+    None); ``executables_before``: the stepper's compiled chunk executables before the timed rounds
+    (the row gives them after, and how many were added while timing)."""
     L, v = c[0], c[2]
     t = timing.summarise(times)
     med = t.median
@@ -145,7 +146,7 @@ def _row(c, stepper, times: list[float], compile_s: float, one_lane_s, chunk_ste
         # the update's arithmetic rate over (cores × the one-core roofline of its own products)
         "fraction_of_per_core_roofline": (rate / (roof["cores"] * roof["one_core"]["roofline_gflop_per_s"])) if roof else None,
         # one executable per lane count and placement; none may be added while timing
-        "chunk_executables": executables, "compiles_while_timing": added,
+        "chunk_executables": stepper.executables, "compiles_while_timing": stepper.executables - executables_before,
     }
 
 
@@ -208,16 +209,14 @@ def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overr
         compile_s[c] = time.perf_counter() - t0
         how = " sharded" if sh else f" as {steppers[c].lane_groups}" if groups else ""
         log(f"lanes {L}{how}{' ' + v if v else ''}: compiled + first chunk {compile_s[c]:.1f} s")
-    # one jitted chunk serves every lane count and placement of a config (one executable each)
-    def executables(c):  # compiled chunk executables of candidate c (its groups' are all made before chunk 0)
-        return steppers[c].executables
-
+    # one jitted chunk serves every lane count and placement of a config (one executable each; lane
+    # groups make all of theirs before chunk 0)
     def timed_chunk(c):  # round r is the chunk r + 1 (chunk 0 compiled); run_chunk blocks itself
         def run(r):
             states[c] = run_chunk(c, states[c], r + 1)
         return timing.timed(run, wait=None)
 
-    warm_sizes = {c: executables(c) for c in candidates}
+    warm_sizes = {c: steppers[c].executables for c in candidates}
     times = timing.interleave({c: timed_chunk(c) for c in candidates}, repeats, rotate=False)
     agent = progs[candidates[0]].agent
     flops = update_flops(agent)
@@ -226,8 +225,7 @@ def measure(config: str, lanes: list[int], chunk_steps: int, repeats: int, overr
     for c in candidates:
         if c[0] == 1 and c[2] not in one:
             one[c[2]] = timing.summarise(times[c]).median
-    rows = [_row(c, steppers[c], times[c], compile_s[c], one.get(c[2]), chunk_steps, flops, roof,
-                 executables(c), executables(c) - warm_sizes[c])
+    rows = [_row(c, steppers[c], times[c], compile_s[c], one.get(c[2]), chunk_steps, flops, roof, warm_sizes[c])
             for c in candidates]
     base = variant_cfgs[""]
     return {
