@@ -30,8 +30,8 @@ TINY = ["seeds=2", "total_steps=3000", "eval_freq=1000", "learning_starts=1000",
         "replay_size=5000", "agent.hidden=[16,16]", "agent.batch_size=32", "agent.activation.learnable=true",
         "env.backend=mjx", "env.max_episode_steps=200"]
 # the MJX backend's training program, end to end (tests/test_train.py: MuJoCo C): Swimmer's, whose MJX
-# programs compile fastest, with 200-step episodes (evaluations run each to its end; cold, 93 s vs
-# HalfCheetah's 139 s with 1000-step ones, docs/notebook/tests-2026-12-06.md)
+# programs compile fastest, with 200-step episodes (evaluations run each to its end); the fixture's
+# cold time for each env: docs/notebook/tests-2026-12-06.md
 KS = (0.5, 1.0)
 
 

@@ -110,10 +110,10 @@ def rungekutta4_c(m, d):
     point 2)
 
     Stages 1-3 run as a ``lax.scan`` over (a_i, b_i), so ``forward`` is traced once for them, not
-    three times: the Hopper step program traces in a third of the time and compiles in ~60 %
-    (docs/ENVS.md, "RK4 stages as a scan"). The arithmetic is the same; XLA compiles the loop body
-    apart from its surroundings, so results differ from the unrolled stages at float rounding
-    (float64 1.8e-15, float32 9.5e-7 on Hopper's teacher-forced observations).
+    three times: the step traces and compiles in about half the time, at the same step time
+    (docs/PERFORMANCE.md: mjx-rk4-scan). The arithmetic is the same; XLA compiles the loop body
+    apart from its surroundings, so results differ from unrolled stages at float rounding
+    (docs/ENVS.md, "RK4 stages as a scan").
     """
     h = m.opt.timestep
     d0 = d
