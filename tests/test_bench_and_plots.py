@@ -511,5 +511,7 @@ def test_checkpoint_bench_writes_both_kinds_and_restores(tmp_path, capsys):
                        "--fill", "2000", "--chunk", "500", "--rounds", "2", "--keep", "2", "--out", str(tmp_path)]) == 0
     res = json.load(open(glob.glob(str(tmp_path / "checkpoint-*.json"))[0]))
     assert [len(res["seconds"][k]) for k in ("whole", "appended")] == [2, 2]
+    assert [len(res["restore_seconds"][k]) for k in ("whole", "appended")] == [2, 2]  # restores timed per round too
+    assert res["restore_s"]["whole"] == __import__("statistics").median(res["restore_seconds"]["whole"])
     assert res["disk_bytes"]["one_whole_state"] > 0 and res["lanes"] == 2
     assert "| appended |" in capsys.readouterr().out

@@ -13,7 +13,8 @@ observations, i.e. hardly), then, alternated over ``--rounds``, writes it as a c
 
 each into its own folder keeping ``--keep`` checkpoints as training does. Reported: seconds per
 checkpoint (median, min–max), the disk each folder takes after the rounds, one whole state's size,
-and the seconds to restore the newest checkpoint (buffer included). JSON under ``--out``.
+and the seconds to restore the newest checkpoint (buffer included; median of ``--rounds`` restores,
+alternating between the kinds). JSON under ``--out``.
 """
 
 from __future__ import annotations
@@ -22,7 +23,6 @@ import os
 import shutil
 import subprocess
 import tempfile
-import time
 
 import jax
 import jax.numpy as jnp
@@ -122,13 +122,16 @@ def main(argv: list[str] | None = None) -> int:
         f"round {r + 1}: whole {t['whole']:.2f} s, appended {t['appended']:.2f} s", flush=True))
     last = max(args.fill, args.chunk) + (args.rounds - 1) * args.chunk
     full_template = (jax.eval_shape(lambda: states), jax.ShapeDtypeStruct(evals.shape, evals.dtype))
-    t0 = time.perf_counter()
-    whole.restore(last, full_template)
-    restore_whole = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    appended.restore(last, (train._without_replay(full_template[0]), full_template[1]))
-    store.rebuild(last, {k: (a.shape, a.dtype) for k, a in states.buffer.data._asdict().items()})
-    restore_appended = time.perf_counter() - t0
+    buffer_spec = {k: (a.shape, a.dtype) for k, a in states.buffer.data._asdict().items()}
+
+    def restore_appended(r):
+        appended.restore(last, (train._without_replay(full_template[0]), full_template[1]))
+        return store.rebuild(last, buffer_spec)
+
+    restore_times = timing.interleave({
+        "whole": timing.timed(lambda r: whole.restore(last, full_template), wait=None),
+        "appended": timing.timed(restore_appended, wait=None),
+    }, args.rounds)
     whole.close()
     appended.close()
     one_state = _du(os.path.join(whole_dir, str(last)))
@@ -139,14 +142,15 @@ def main(argv: list[str] | None = None) -> int:
         "seconds": times,
         "median_s": {k: timing.summarise(v).median for k, v in times.items()},
         "disk_bytes": {"whole": _du(whole_dir), "appended": _du(appended_dir), "one_whole_state": one_state},
-        "restore_s": {"whole": restore_whole, "appended": restore_appended},
+        "restore_seconds": restore_times,
+        "restore_s": {k: timing.summarise(v).median for k, v in restore_times.items()},
     }
     if args.dir is None:
         shutil.rmtree(root, ignore_errors=True)
     mb = lambda b: f"{b / 1e6:,.0f} MB"  # noqa: E731
     print(f"\n{args.config}, {lanes} lanes, {args.replay_size:,}-slot buffer holding {args.fill:,} transitions, "
           f"{args.chunk} new per checkpoint, {args.keep} kept; {result['cpu']}, {result['cores']} cores\n")
-    print("| checkpoint | seconds (median) | min–max | disk after the rounds | vs one whole state | restore (s) |")
+    print("| checkpoint | seconds (median) | min–max | disk after the rounds | vs one whole state | restore (s, median) |")
     print("|---|---|---|---|---|---|")
     for k in ("whole", "appended"):
         t = timing.summarise(times[k])
