@@ -12,7 +12,7 @@ from envcases import N_STEPS, env_params, teacher_forced, teacher_forced_errors
 
 ATOL_F64 = 1e-8
 # Measured (docs/ENVS.md) with MuJoCo C's Newton solver (swim_jax/envs/physics/mjx_solver.py) and RK4 scheme
-# (swim_jax/envs/physics/mjx_compat.py): obs <= 6.3e-13 and rewards <= 4.5e-14 for every env (with MJX's own solver:
+# (swim_jax/envs/physics/mjx_compat.py): obs <= 8.3e-13 and rewards <= 4.5e-14 for every env (with MJX's own solver:
 # up to 2.5e-6, HalfCheetah).
 # The default run checks Hopper-v5 (terminations) and HalfCheetah-v5 (most contact events).
 ALL = ("Hopper-v5", "Walker2d-v5", "HalfCheetah-v5", "Swimmer-v5", "Ant-v5", "Hopper-v4",

@@ -194,16 +194,12 @@ class LocomotionEnv(brax_base.Env):
     # ------------------------------------------------------------------ physics
     def physics_reset(self, qpos: jax.Array, qvel: jax.Array) -> mjx.Data:
         """Physics at ``(qpos, qvel)`` after ``mj_forward``, like Gymnasium's ``set_state``
-        (MJX data, or :class:`swim_jax.envs.physics.native.NativeData` with ``backend="mujoco"``).
-
-        qpos is kept as given: MJX's ``forward`` writes normalised quaternions back into qpos,
-        MuJoCo C's normalises a copy, so Ant's reset observation (its root quaternion, noised off
-        unit length) would otherwise differ from Gymnasium's."""
+        (MJX data, or :class:`swim_jax.envs.physics.native.NativeData` with ``backend="mujoco"``)."""
         if self._native is not None:
             return self._native.reset(qpos, qvel)
         data = self._data0.replace(qpos=qpos.astype(self.dtype), qvel=qvel.astype(self.dtype))
         with mjx_solver._implementation(self.solver_impl):
-            return mjx.forward(self.sys, data).replace(qpos=data.qpos)
+            return mjx.forward(self.sys, data)
 
     def physics_step(self, data: mjx.Data, action: jax.Array) -> mjx.Data:
         """``frame_skip`` physics steps with ``ctrl = action`` (then cfrc_ext if the task needs it)."""

@@ -25,7 +25,12 @@ of MJX's ``solver.solve``, which takes another path to the same minimum.
 4. Dense factorisation of M (``smooth.factor_m`` / ``solve_m``) in plain JAX ops instead of
 jaxlib's LAPACK kernels, which deadlocked when two ran at once (:mod:`swim_jax.envs.physics.small_linalg`).
 
-:func:`install` applies all four; it is idempotent and called when ``envs`` is imported.
+5. qpos as given: MJX's ``smooth.kinematics`` writes the normalised quaternions of free and ball
+joints back into qpos, MuJoCo C's ``mj_kinematics`` normalises copies. Gymnasium's Ant reset leaves
+its root quaternion noised off unit length, and its observation shows it; :func:`kinematics_c`
+keeps qpos, so every ``forward`` (reset, step, RK4 stage) starts from the qpos C would.
+
+:func:`install` applies all five; it is idempotent and called when ``envs`` is imported.
 """
 
 from __future__ import annotations
@@ -141,6 +146,7 @@ def rungekutta4_c(m, d):
 
 
 _MJX_FACTOR_M, _MJX_SOLVE_M = smooth.factor_m, smooth.solve_m
+_MJX_KINEMATICS = smooth.kinematics
 _MJX_RUNGEKUTTA4 = forward.rungekutta4  # MJX's own scheme, kept for comparison (tests)
 
 
@@ -158,10 +164,16 @@ def solve_m_plain(m, d, x):
     return small_linalg.cho_solve_upper(d._impl.qLD, x)
 
 
+def kinematics_c(m, d):
+    """MJX's ``smooth.kinematics`` with qpos left as given, as MuJoCo C's (module docstring, point 5)."""
+    return _MJX_KINEMATICS(m, d).replace(qpos=d.qpos)
+
+
 def install() -> None:
-    """Register the C-consistent plane-capsule frame, RK4 step and Newton solver, and LAPACK-free
-    factorisation of M, in MJX (idempotent)."""
+    """Register the C-consistent plane-capsule frame, RK4 step, Newton solver and kinematics (qpos
+    kept), and LAPACK-free factorisation of M, in MJX (idempotent)."""
     solver.solve = mjx_solver.solve
     smooth.factor_m, smooth.solve_m = factor_m_plain, solve_m_plain
     collision_driver._COLLISION_FUNC[(GeomType.PLANE, GeomType.CAPSULE)] = plane_capsule_c_frame
     forward.rungekutta4 = rungekutta4_c
+    smooth.kinematics = kinematics_c
