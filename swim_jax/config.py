@@ -1,8 +1,9 @@
 """Run configuration: typed dataclasses, YAML files with ``inherit``, dotted ``key=value`` overrides.
 
 Resolution order (later wins): the dataclass defaults (= the TD3 reference protocol) → the chain
-of YAML files (``configs/<name>.yaml``; a file's ``inherit: <other>`` is loaded first and deep-merged
-under it) → command-line overrides ``a.b.c=value`` (values parsed as YAML scalars/lists).
+of YAML files (``configs/<name>.yaml``, or one's own file, ``config=path/to/my.yaml``; a file's
+``inherit: <other>`` is loaded first and deep-merged under it) → command-line overrides
+``a.b.c=value`` (values parsed as YAML scalars/lists).
 Every problem (unknown key, wrong type, unknown env/activation/precision, inconsistent numbers)
 raises ``ConfigError`` with ONE line naming the valid choices.
 """
@@ -23,12 +24,25 @@ import yaml
 from swim_jax import envs
 from swim_jax.agents.td3 import TD3Config, replace_fields, sweepable_fields
 from swim_jax.activations import ACTIVATIONS, learnable_activations, validate_params
-from swim_jax.io import tensorboard_log
+from swim_jax.io import provenance, tensorboard_log
 
-CONFIG_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "configs")
+
+def locate_config_dir() -> str:
+    """The folder of the run recipes (``<name>.yaml``, ``studies/``): the checkout's top-level
+    ``configs/`` when it exists beside the package (a checkout or an editable install, marked by the
+    ``pyproject.toml`` beside it, so edits to configs/ count at once), else the copy that a built
+    wheel carries inside the package, ``swim_jax/_configs/`` (put there by setup.py's ``build_py``)."""
+    package = os.path.dirname(os.path.abspath(__file__))
+    checkout = os.path.dirname(package)
+    if os.path.isdir(os.path.join(checkout, "configs")) and os.path.isfile(os.path.join(checkout, "pyproject.toml")):
+        return os.path.join(checkout, "configs")
+    return os.path.join(package, "_configs")
+
+
+CONFIG_DIR = locate_config_dir()
 PRECISIONS = ("float32", "float64")
 MATMUL_PRECISIONS = ("highest", "high", "default")
-MATMUL_DTYPES = ("auto", "full", "bfloat16")
+MATMUL_DTYPES = ("full", "bfloat16")
 NATIVE_CALLS = envs.NATIVE_CALLS
 # env.backend: "auto" (MuJoCo C on a CPU, MJX on an accelerator) or one of the envs' backends
 PHYSICS_BACKENDS = ("auto", *envs.BACKENDS)
@@ -78,11 +92,13 @@ class Config:
     # float32 matmul precision (jax.default_matmul_precision): "highest" = true float32 everywhere;
     # "default" lets NVIDIA GPUs use TF32 (~1e-3 relative; faster for big matmuls, not comparable with CPU)
     matmul_precision: str = "highest"
-    # network matmuls: "bfloat16" = inputs, weights, biases and the products' derivatives rounded to
-    # bfloat16, sums in float32 (parameters, Adam state, activations stay in precision); "full" =
-    # in the run's precision; "auto" = bfloat16 for float32 runs on a CPU with bfloat16 dot
-    # instructions (AVX-512 BF16 / AMX; swim_jax/io/hardware.py), else full (programs.matmul_dtype)
-    matmul_dtype: str = "auto"
+    # the dtype of the networks' matrix products: "full" = the run's precision (float32 products in a
+    # float32 run, as the TD3 reference) on every machine; "bfloat16" = inputs, weights, biases and
+    # the products' derivatives rounded to bfloat16, sums in float32 (parameters, Adam state and
+    # activations stay in precision): faster on CPUs with bfloat16 dot instructions, and it changes
+    # what TD3 learns (docs/PERFORMANCE.md: bf16-learning-parity). Old run folders may say "auto"
+    # (bfloat16 on such CPUs): they resume as they ran (swim_jax.io.provenance.config_matmul_dtype)
+    matmul_dtype: str = "full"
     # lanes (seeds × sweep points) split over devices when several exist and lanes divide evenly
     shard_lanes: bool = True
     # > 0: ask XLA for this many host CPU devices (sets XLA_FLAGS before JAX starts; CPU only)
@@ -245,11 +261,35 @@ def available_configs(config_dir: str = CONFIG_DIR) -> list[str]:
     return sorted(f[:-5] for f in os.listdir(config_dir) if f.endswith(".yaml") and not f.startswith("_"))
 
 
-def load_yaml_chain(name: str, config_dir: str = CONFIG_DIR, _seen=()) -> dict:
-    """Load ``configs/<name>.yaml`` with its ``inherit`` chain merged (parents first)."""
-    path = name if name.endswith(".yaml") and os.path.isfile(name) else os.path.join(config_dir, f"{name}.yaml")
-    if not os.path.isfile(path):
+def _config_file(name: str, config_dir: str, inheriting: str | None) -> str:
+    """The file of config ``name``. On the command line: a name ending in ``.yaml`` is a file's path,
+    any other a config of ``config_dir``. In an ``inherit:``: the file beside the inheriting one
+    first (``name`` relative to its folder), then ``config_dir``'s; never the inheriting file itself."""
+    file = name if name.endswith(".yaml") else f"{name}.yaml"
+    if inheriting is None:
+        path = os.path.abspath(name if name.endswith(".yaml") else os.path.join(config_dir, file))
+        if os.path.isfile(path):
+            return path
+        if name.endswith(".yaml"):
+            where = "" if path == name else f" ({path})"
+            raise ConfigError(f"config file {name} not found{where}; config= takes a YAML file's path or one "
+                              f"of the shipped configs: {', '.join(available_configs(config_dir))}")
         raise ConfigError(f"unknown config {name!r}; valid configs: {', '.join(available_configs(config_dir))}")
+    here = os.path.dirname(inheriting)
+    for path in (os.path.abspath(os.path.join(here, file)), os.path.abspath(os.path.join(config_dir, file))):
+        if os.path.isfile(path) and path != inheriting:
+            return path
+    if os.path.abspath(os.path.join(here, file)) == inheriting:
+        raise ConfigError(f"config {inheriting}: circular inherit (it inherits itself)")
+    raise ConfigError(f"config {inheriting}: inherit {name!r} found neither in {here} nor among the shipped "
+                      f"configs ({', '.join(available_configs(config_dir))}, and their _<env> bases)")
+
+
+def load_yaml_chain(name: str, config_dir: str = CONFIG_DIR, _seen=()) -> dict:
+    """Load config ``name`` with its ``inherit`` chain merged (parents first): ``walker_swim`` is
+    ``<config_dir>/walker_swim.yaml``, ``path/to/my.yaml`` a file of one's own, whose ``inherit:``
+    may name a file beside it or a shipped config (``walker_swim``, ``_walker``); see ``_config_file``."""
+    path = _config_file(name, config_dir, _seen[-1] if _seen else None)
     if path in _seen:
         raise ConfigError(f"config {name!r}: circular inherit")
     with open(path) as f:
@@ -263,6 +303,21 @@ def load_yaml_chain(name: str, config_dir: str = CONFIG_DIR, _seen=()) -> dict:
     if parent is not None:
         data = deep_merge(load_yaml_chain(str(parent), config_dir, _seen + (path,)), data)
     return data
+
+
+def available_studies(config_dir: str = CONFIG_DIR) -> list[str]:
+    """Names of the shipped study files, ``<config_dir>/studies/<name>.yaml``."""
+    folder = os.path.join(config_dir, "studies")
+    return sorted(f[:-5] for f in os.listdir(folder) if f.endswith(".yaml")) if os.path.isdir(folder) else []
+
+
+def shipped_study(name: str, config_dir: str = CONFIG_DIR) -> str | None:
+    """The shipped study file of a bare study name (``table2`` or ``table2.yaml``, no folder):
+    ``<config_dir>/studies/table2.yaml``; None for a path or a name that is not shipped."""
+    if not name or os.path.dirname(name):
+        return None
+    path = os.path.join(config_dir, "studies", name if name.endswith(".yaml") else f"{name}.yaml")
+    return path if os.path.isfile(path) else None
 
 
 def parse_override(item: str) -> tuple[list[str], Any]:
@@ -314,6 +369,9 @@ def validate(cfg: Config) -> Config:
                           f"valid: {', '.join(learnable_activations())}")
     if cfg.matmul_precision not in MATMUL_PRECISIONS:
         raise ConfigError(f"unknown matmul_precision {cfg.matmul_precision!r}; valid: {', '.join(MATMUL_PRECISIONS)}")
+    if cfg.matmul_dtype == "auto":
+        raise ConfigError("matmul_dtype=auto is no longer offered (it multiplied in bfloat16 on some CPUs only); "
+                          "valid: full (the run's precision, the default), bfloat16")
     if cfg.matmul_dtype not in MATMUL_DTYPES:
         raise ConfigError(f"unknown matmul_dtype {cfg.matmul_dtype!r}; valid: {', '.join(MATMUL_DTYPES)}")
     if cfg.precision not in PRECISIONS:
@@ -395,6 +453,25 @@ def resolve(config: str | None, overrides: list[str], config_dir: str = CONFIG_D
     if not cfg.name:
         cfg = dataclasses.replace(cfg, name=os.path.basename(config)[:-5] if config and config.endswith(".yaml") else (config or "run"))
     return validate(cfg)
+
+
+def read_run_config(run_dir: str, overrides: list[str] = ()) -> tuple[dict, Config]:
+    """(the mapping in ``run_dir``'s config.yaml, the validated config a run of it builds with
+    ``overrides`` applied). An old folder's ``matmul_dtype: auto`` reads as what that run multiplied in
+    (``swim_jax.io.provenance.config_matmul_dtype``), so it resumes, evaluates and exports as it ran.
+    :class:`ConfigError` (one line) when the file is missing or invalid."""
+    path = os.path.join(run_dir, "config.yaml")
+    if not os.path.isfile(path):
+        raise ConfigError(f"{path} not found")
+    with open(path) as f:
+        try:
+            raw = yaml.safe_load(f) or {}
+        except yaml.YAMLError as e:
+            raise ConfigError(f"{path}: invalid YAML ({str(e).splitlines()[0]})") from None
+    if not isinstance(raw, dict):
+        raise ConfigError(f"{path} is not a config mapping")
+    data = {**raw, "matmul_dtype": provenance.config_matmul_dtype(run_dir, raw)}
+    return raw, validate(from_dict(Config, apply_overrides(data, list(overrides))))
 
 
 def dump(cfg: Config) -> str:

@@ -108,18 +108,18 @@ def test_known_xml_notices_are_the_envs():
 # --------------------------------------------------------------------------- the actor
 
 
-def random_actor(name: str, learnable: bool, dtype, matmul=None, seed: int = 1):
+def random_actor(name: str, learnable: bool, dtype, matmul_dtype=None, seed: int = 1):
     """(JAX agent, its actor parameters, the NumPy Policy of the same leaves): parameters off their
     defaults, learnable ones moved away from their initial values."""
     values = {p.name: p.default * 1.3 for p in ACTIVATIONS[name].params}
     agent = TD3(TD3Config(hidden=(16, 12), activation=ActivationConfig(name=name, learnable=learnable, **values)),
-                OBS_SIZE, LOW, HIGH, dtype=dtype, matmul_dtype=matmul)
+                OBS_SIZE, LOW, HIGH, dtype=dtype, matmul_dtype=matmul_dtype)
     actor = agent.actor_net.init(jax.random.PRNGKey(seed), jnp.zeros((1, OBS_SIZE), dtype))
     flat = outputs.flat_params(actor)
     flat = {k: v * (0.6 + 0.2 * i) if "/act_" in k else v for i, (k, v) in enumerate(sorted(flat.items()))}
     cfg = {"env": {"id": "Hopper-v5"}, "agent": {"hidden": [16, 12], "activation": {"name": name, "learnable": learnable,
                                                                                     **values}}}
-    policy = pol.policy_from_leaves(flat, cfg, "test", np.dtype(dtype), "full" if matmul is None else "bfloat16",
+    policy = pol.policy_from_leaves(flat, cfg, "test", np.dtype(dtype), "full" if matmul_dtype is None else "bfloat16",
                                     spec=(OBS_SIZE, np.asarray(LOW), np.asarray(HIGH)))
     return agent, jax.tree.map(jnp.asarray, unflatten(flat)), policy
 
@@ -199,7 +199,7 @@ def test_load_policy_of_a_learnable_float64_run_equals_its_jax_actor(policy_runs
     obs = observations()
     for pos, seed in enumerate((0, 1)):
         policy = pol.load_policy(res.run_dir, seed=seed)
-        assert policy.dtype == np.float64 and policy.matmul == "full" and policy.env_id == "Hopper-v5"
+        assert policy.dtype == np.float64 and policy.matmul_dtype == "full" and policy.env_id == "Hopper-v5"
         learned = [layer["k"] for layer in policy.layer_params]
         np.testing.assert_array_equal(learned, [float(res.final_actor[f"params/body/act_{i}/k"][pos]) for i in (0, 1)])
         assert all(k != 0.5 for k in learned)  # learned, not the config's k
@@ -219,7 +219,7 @@ def test_load_policy_of_sweep_points_uses_each_points_value(policy_runs):
     assert [os.path.basename(p) for p in points] == ["beta=0.5", "beta=2"]
     for lane, (folder, beta) in enumerate(zip(points, (0.5, 2.0))):
         policy = pol.load_policy(folder, seed=0)
-        assert policy.matmul == "bfloat16" and policy.dtype == np.float32
+        assert policy.matmul_dtype == "bfloat16" and policy.dtype == np.float32
         assert policy.layer_params == ({"beta": beta}, {"beta": beta})
         ref = jax_actor(res, lane, {"agent.activation.beta": beta})(obs)
         err = np.abs(policy(obs) - ref)

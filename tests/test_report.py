@@ -291,50 +291,80 @@ def test_pooling_refuses_overlapping_seeds_and_different_hyperparameters(tmp_pat
     assert rc == 2 and "given twice" in err
 
 
-def test_config_differences_between_activations_are_warned(tmp_path, capsys):
+def test_runs_of_different_precision_are_refused_unless_asked_and_then_marked(tmp_path, capsys):
+    """float32 against float64 runs of one env: one line naming both, exit 2, nothing written;
+    with --mixed-precision the report is written and the env's rows and verdict carry the mark."""
     paths = [write_run(tmp_path, "a", act="swim"), write_run(tmp_path, "b", act="swish", returns=SWISH,
                                                                precision="float64")]
     out = tmp_path / "out"
-    assert run_report(paths + ["--out", out, "--n-boot", "200"], capsys)[0] == 0
+    rc, _, err = run_report(paths + ["--out", out, "--n-boot", "200"], capsys)
+    assert rc == 2 and len(err.strip().splitlines()) == 1 and not out.exists()
+    assert "runs differ in precision or matmul_dtype: float32: a; float64: b" in err and "--mixed-precision" in err
+    assert run_report(paths + ["--out", out, "--n-boot", "200", "--mixed-precision"], capsys)[0] == 0
     md = (out / "REPORT.md").read_text()
-    assert "differ in precision: 'float32' vs 'float64'" in md
+    assert "### Walker2d-v5 ‡ (runs differ in precision or matmul_dtype: float32: a; float64: b)" in md
+    assert "- **Walker2d-v5 ‡ (runs differ" in md
+    assert json.loads((out / "results.json").read_text())["envs"]["Walker2d-v5"]["mixed_precision"].startswith("runs differ")
 
 
-def _write_matmul_products(run_dir, dtype):
+def _write_matmul_dtype(run_dir, dtype):
     """The key swim_jax.run.train writes into a finished run's timing.json: the dtype its products ran in."""
     with open(os.path.join(run_dir, "timing.json"), "w") as f:
         json.dump({"wall_time_s": 1.0, "matmul_dtype": dtype}, f)
 
 
-def test_matmul_products_differing_between_machines_are_warned(tmp_path, capsys):
-    """Same config (matmul_dtype: auto) resolved to bfloat16 on one machine and float32 on another:
-    the budget table names each activation's products and the report warns; agreeing runs get one
-    dtype and no warning; runs that multiplied in their precision (or record nothing) keep the plain
-    precision, as reports before the products were recorded."""
+def test_matmul_products_differing_between_machines_are_refused_unless_asked(tmp_path, capsys):
+    """Same config (the old matmul_dtype: auto) resolved to bfloat16 on one machine and float32 on
+    another: refused with one line naming the runs, compared with --mixed-precision (the budget table
+    names each activation's products, the rows are marked); agreeing runs get one dtype and no mark;
+    runs that multiplied in their precision (or record nothing) keep the plain precision."""
     runs = tmp_path / "runs"
     runs.mkdir()
-    swim, swish = write_run(runs, "swim", act="swim"), write_run(runs, "swish", act="swish", returns=SWISH)
+    swim = write_run(runs, "swim", act="swim", matmul_dtype="auto")
+    swish = write_run(runs, "swish", act="swish", returns=SWISH, matmul_dtype="auto")
     out = tmp_path / "none"
     assert run_report([swim, swish, "--out", out, "--n-boot", "200"], capsys)[0] == 0
     md = (out / "REPORT.md").read_text()
-    assert "| 5 | Swim 2, Swish 2 | float32 |" in md and "dtype of their matmul products" not in md
-    _write_matmul_products(swim, "float32")
-    _write_matmul_products(swish, "bfloat16")
+    assert "| 5 | Swim 2, Swish 2 | float32 |" in md and "‡" not in md
+    _write_matmul_dtype(swim, "float32")
+    _write_matmul_dtype(swish, "bfloat16")
     out = tmp_path / "mixed"
-    assert run_report([swim, swish, "--out", out, "--n-boot", "200"], capsys)[0] == 0
+    rc, _, err = run_report([swim, swish, "--out", out, "--n-boot", "200"], capsys)
+    assert rc == 2 and "float32: swim; float32, bfloat16 products: swish" in err and not out.exists()
+    assert run_report([swim, swish, "--out", out, "--n-boot", "200", "--mixed-precision"], capsys)[0] == 0
     md = (out / "REPORT.md").read_text()
-    assert "| float32; products: Swim float32, Swish bfloat16 |" in md
-    assert "dtype of their matmul products (timing.json matmul_dtype): swim float32, swish bfloat16" in md
-    warned = json.loads((out / "results.json").read_text())
-    walker_json = warned["envs"]["Walker2d-v5"]
-    assert any("matmul products" in w for w in walker_json["warnings"])
-    assert {a: c.get("matmul_products") for a, c in walker_json["curves"].items()} == {"swim": None,
-                                                                                       "swish": ["bfloat16"]}
-    _write_matmul_products(swim, "bfloat16")
+    assert "| float32; products: Swim float32, Swish bfloat16 ‡ |" in md
+    walker_json = json.loads((out / "results.json").read_text())["envs"]["Walker2d-v5"]
+    assert any("--mixed-precision" in w for w in walker_json["warnings"])
+    assert {a: c.get("matmul_dtypes") for a, c in walker_json["curves"].items()} == {"swim": None,
+                                                                                     "swish": ["bfloat16"]}
+    _write_matmul_dtype(swim, "bfloat16")
     out = tmp_path / "same"
     assert run_report([swim, swish, "--out", out, "--n-boot", "200"], capsys)[0] == 0
     md = (out / "REPORT.md").read_text()
-    assert "| float32, bfloat16 products |" in md and "dtype of their matmul products" not in md
+    assert "| float32, bfloat16 products |" in md and "‡" not in md
+
+
+def test_report_at_a_budget_the_runs_have_reached(tmp_path, capsys):
+    """--at-step N reads every run at the budget N (Table II at 300k from 1M runs): equal to a report of
+    the same runs cut at N, a run still training counts once it has passed N, and a step the runs
+    have not reached or that is not an evaluation step is one line, exit 2."""
+    long_swim = np.concatenate([SWIM, SWIM[-1:] + 50.0, SWIM[-1:] + 90.0])  # 5 evaluations: 0..400
+    long_swish = np.concatenate([SWISH, SWISH[-1:] - 20.0])  # 4 of 5: still training
+    full = [write_run(tmp_path / "full", "swim", act="swim", returns=long_swim, total_steps=400),
+            write_run(tmp_path / "full", "swish", act="swish", returns=long_swish, total_steps=400)]
+    cut = [write_run(tmp_path / "cut", "swim", act="swim"), write_run(tmp_path / "cut", "swish", act="swish", returns=SWISH)]
+    assert run_report(cut + ["--out", tmp_path / "r_cut", "--n-boot", "200"], capsys)[0] == 0
+    assert run_report(full + ["--out", tmp_path / "r_at", "--n-boot", "200", "--at-step", "200"], capsys)[0] == 0
+    at = json.loads((tmp_path / "r_at" / "results.json").read_text())["envs"]["Walker2d-v5"]
+    ref = json.loads((tmp_path / "r_cut" / "results.json").read_text())["envs"]["Walker2d-v5"]
+    without_paths = lambda t2: {a: {k: v for k, v in row.items() if k != "runs"} for a, row in t2.items()}
+    assert without_paths(at["table2"]) == without_paths(ref["table2"])
+    assert at["steps"] == [0, 100, 200] and at["total_steps"] == 200
+    rc, _, err = run_report(full + ["--out", tmp_path / "r_far", "--at-step", "400"], capsys)
+    assert rc == 2 and "has reached step 300, not --at-step 400" in err
+    rc, _, err = run_report(full + ["--out", tmp_path / "r_odd", "--at-step", "150"], capsys)
+    assert rc == 2 and "not an evaluation step" in err and len(err.strip().splitlines()) == 1
 
 
 def test_incomplete_runs_refused_or_truncated(tmp_path, walker, capsys):

@@ -180,16 +180,34 @@ def test_study_skips_resumes_and_starts(finished):
 def test_full_report(finished, tmp_path):
     path, s, _, _ = finished
     out = str(tmp_path / "report")
-    res = cli(path, "--report", out)
+    # cell 1's stretches multiplied in different dtypes (the finished fixture): no comparison unless asked
+    refused = cli(path, "--report", out)
+    assert refused.returncode == 2 and len(refused.stderr.strip().splitlines()) == 1, refused.stderr
+    assert "runs differ in precision or matmul_dtype" in refused.stderr and "hopper_relu" in refused.stderr
+    assert "--mixed-precision" in refused.stderr and not os.path.exists(out)
+    res = cli(path, "--report", out, "--mixed-precision")
     assert res.returncode == 0, res.stderr
     text = open(os.path.join(out, "REPORT.md")).read()
     assert "## The study" in text and "Partial study" not in text and "pools the **3 finished**" in text
     assert "Table II" in text and os.path.isfile(os.path.join(out, "figure4.png"))
     assert "--cell hopper_swish" in text
-    # cell 1's stretches multiplied in different dtypes (the finished fixture): its row and a warning say so
+    # compared on request: cell 1's row names both dtypes, the env's Table II rows and verdict are marked
     first, second = (e["matmul_dtype"] for e in provenance.read(s.cells[1].run_dir))
     assert f"| {first}→{second} |" in next(line for line in text.splitlines() if line.startswith("| hopper_relu |"))
-    assert "runs differ in the dtype of their matmul products" in text
+    assert "### Hopper-v5 ‡ (runs differ in precision or matmul_dtype" in text
+    assert "- **Hopper-v5 ‡ (runs differ" in text and "--mixed-precision" in text
+
+
+def test_a_raised_budget_reopens_done_cells_and_a_lowered_one_is_refused(finished, tmp_path):
+    """A study file whose total_steps was raised keeps its cells (they are resumed to the new budget
+    by train.run, tests/test_train.py: the grown budget equals a run started with it); one whose
+    total_steps was lowered is refused with one line naming the cell."""
+    path, s, _, _ = finished
+    raised = study.load(write_study(str(tmp_path), {**TINY, "out_dir": s.out_dir, "total_steps": 3000}))
+    assert all(study.cell_state(c).state == "started" and c.cfg.total_steps == 3000 for c in raised.cells)
+    with pytest.raises(study.StudyError, match="started with total_steps=2000, the study now gives "
+                                               "total_steps=1000; a budget can only grow"):
+        study.load(write_study(str(tmp_path), {**TINY, "out_dir": s.out_dir, "total_steps": 1000}, "low.yaml"))
 
 
 def test_provenance_of_a_cell(finished):
@@ -254,12 +272,12 @@ def test_bad_options(tmp_path, capsys):
 def test_a_changed_study_is_refused(interrupted, tmp_path, capsys):
     path, s = interrupted
     changed = yaml.safe_load(open(path))
-    changed["total_steps"] = 3000
+    changed["overrides"]["agent.batch_size"] = 64  # (a raised total_steps is not a change: the budget grows)
     other = write_study(str(tmp_path), changed, "changed.yaml")
     before = sorted(os.listdir(s.out_dir))
     assert study.main([other, "--status"]) == 2
     err = capsys.readouterr().err
-    assert "cell hopper_swim:" in err and "was started with total_steps=2000, the study now gives total_steps=3000" in err
+    assert "cell hopper_swim:" in err and "was started with agent.batch_size=32, the study now gives agent.batch_size=64" in err
     assert sorted(os.listdir(s.out_dir)) == before
 
 
@@ -297,7 +315,8 @@ def test_curate_copies_finished_cells_without_checkpoints_and_reports_them(inter
     done = [c for c in s.cells if study.cell_state(c).state == "done"]
     assert done  # cell 0 at least
     out = tmp_path / "curated"
-    assert study.main([path, "--curate", str(out)]) == 0
+    # (--mixed-precision: after the finished fixture, cell 1's stretches multiplied in both dtypes)
+    assert study.main([path, "--curate", str(out), "--mixed-precision"]) == 0
     for c in done:
         names = set(os.listdir(out / c.name))
         assert {"config.yaml", "evaluations.csv", "metrics.csv", "final_policy.npz", "timing.json",
@@ -317,13 +336,13 @@ def test_curate_copies_finished_cells_without_checkpoints_and_reports_them(inter
     # curated inside the working directory (as in the repository): inputs and the study file by
     # paths relative to it, not by this machine's absolute ones
     with contextlib.chdir(tmp_path):
-        assert study.main([path, "--curate", "curated"]) == 0
+        assert study.main([path, "--curate", "curated", "--mixed-precision"]) == 0
     inside = (out / "report" / "REPORT.md").read_text()
     assert f": `{os.path.join('curated', done[0].name)}`" in inside and str(out) not in inside
     assert f"`{os.path.relpath(path, tmp_path)}`" in inside or f"`{path}`" in inside
     stamp = os.path.getmtime(out / done[0].name / "evaluations.csv")
     capsys.readouterr()
-    assert study.main([path, "--curate", str(out)]) == 0
+    assert study.main([path, "--curate", str(out), "--mixed-precision"]) == 0
     assert f"{done[0].name}: already in" in capsys.readouterr().out
     assert os.path.getmtime(out / done[0].name / "evaluations.csv") == stamp
 

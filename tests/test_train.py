@@ -25,7 +25,7 @@ from tensorboardX.proto.event_pb2 import Event, SessionLog
 
 from swim_jax.agents import loop
 from swim_jax import config as cfgmod
-from swim_jax.io import learning_log, tensorboard_log
+from swim_jax.io import learning_log, provenance, tensorboard_log
 from swim_jax.analysis import report
 from swim_jax.run import train
 from swim_jax.run.programs import lanes, matmul_dtype, programs, with_physics_backend
@@ -96,10 +96,11 @@ def test_outputs_and_progress_lines(vmapped):
     csv = open(os.path.join(d, "evaluations.csv")).read().splitlines()
     assert csv[0] == "step,seed_0,seed_1,mean,std" and csv[-1].startswith("4000,")
     assert len(vmapped.lines) == 4 and all("env-steps/s" in l and "ETA" in l and "±" in l for l in vmapped.lines)
-    # the matmul type matmul_dtype=auto resolved to on this machine: in timing.json and every progress line
-    bf16 = matmul_dtype(tiny(*VMAPPED))[0] is not None
-    assert vmapped.timing["matmul_dtype"] == ("bfloat16" if bf16 else "float32")
-    assert all(("bf16 matmuls" in line) == bf16 for line in vmapped.lines)
+    # float32 products by default on every CPU (this one's bfloat16 instructions included): timing.json
+    # and provenance.json say so, and no progress line says bf16
+    assert vmapped.timing["matmul_dtype"] == "float32"
+    assert provenance.recorded_matmul_dtypes(d) == ["float32"]
+    assert not any("bf16 matmuls" in line for line in vmapped.lines)
     # keep_checkpoints=3 of the 4 chunk checkpoints
     assert sorted(os.listdir(os.path.join(d, "checkpoints"))) == ["2000", "3000", "4000", "replay"]
     # env.backend=auto chose MuJoCo C on this CPU and config.yaml records the choice, so a resumed
@@ -403,6 +404,56 @@ def test_a_run_checkpointed_with_its_whole_buffer_resumes_the_same(vmapped, tmp_
         np.testing.assert_array_equal(v, vmapped.final_actor[k], err_msg=k)
 
 
+def test_a_budget_grown_on_resume_equals_a_run_started_with_it(vmapped, tmp_path):
+    """A finished run of 2000 steps resumed with ``total_steps=4000`` continues to 4000 bit for bit
+    as the run started with 4000 (evaluations of every episode, final actor, replay buffer), its
+    config.yaml now says 4000 and nothing recompiles; the CLI takes no other override on resume,
+    nor a smaller budget (one line, exit 2, config.yaml untouched)."""
+    short = train.run(tiny(*VMAPPED, "total_steps=2000"), str(tmp_path / "grown"), log=lambda s: None)
+    d = short.run_dir
+    assert short.evaluations.shape[0] == 3
+    cfg, resume = train.parse_args(["--resume", d, "total_steps=4000"])
+    assert resume == d and cfg == with_physics_backend(tiny(*VMAPPED))
+    lines = []
+    res = train.run(cfg, d, resume=True, log=lines.append)
+    assert any("budget grown: total_steps 2000 -> 4000" in line for line in lines)
+    np.testing.assert_array_equal(res.evaluations, vmapped.evaluations)
+    np.testing.assert_array_equal(np.load(os.path.join(d, "evaluations.npy")), np.load(os.path.join(vmapped.run_dir, "evaluations.npy")))
+    for k, v in res.final_actor.items():
+        np.testing.assert_array_equal(v, vmapped.final_actor[k], err_msg=k)
+    with np.load(os.path.join(d, "final_policy.npz")) as z:  # the final policy of the new budget
+        np.testing.assert_array_equal(z[sorted(z.files)[0]], vmapped.final_actor[sorted(z.files)[0]])
+    for a, b in zip(jax.tree.leaves(res.states.buffer), jax.tree.leaves(vmapped.states.buffer)):
+        np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
+    assert res.chunk_fn is vmapped.chunk_fn and res.chunk_fn._cache_size() == 1
+    assert train.parse_args(["--resume", d])[0].total_steps == 4000  # config.yaml says the new budget
+    before = open(os.path.join(d, "config.yaml"), "rb").read()
+    for argv, needle in [(["total_steps=2000"], "below the run's total_steps=4000"),
+                         (["seeds=3"], "--resume takes only total_steps=N"),
+                         (["total_steps=4500"], "multiple of eval_freq")]:
+        with pytest.raises(cfgmod.ConfigError, match=needle):
+            train.parse_args(["--resume", d, *argv])
+    assert train.main(["--resume", d, "agent.tau=0.01"]) == 2
+    assert open(os.path.join(d, "config.yaml"), "rb").read() == before
+
+
+def test_an_old_folder_that_says_matmul_dtype_auto_resumes_as_it_ran(vmapped, tmp_path):
+    """``matmul_dtype: auto`` (the old default: bfloat16 on CPUs with bfloat16 dot instructions)
+    means what the folder's first stretch recorded, on any machine, for resume, evaluation and export."""
+    d = str(tmp_path / "old")
+    os.makedirs(d)
+    text = open(os.path.join(vmapped.run_dir, "config.yaml")).read()
+    assert "matmul_dtype: full" in text
+    with open(os.path.join(d, "config.yaml"), "w") as f:
+        f.write(text.replace("matmul_dtype: full", "matmul_dtype: auto"))
+    assert train.parse_args(["--resume", d])[0].matmul_dtype == "full"  # nothing recorded: full
+    for recorded, means in [("bfloat16", "bfloat16"), ("float32", "full")]:
+        with open(os.path.join(d, provenance.FILENAME), "w") as f:
+            json.dump([{"step": 0, "matmul_dtype": recorded}, {"step": 1000, "matmul_dtype": "float32"}], f)
+        assert train.parse_args(["--resume", d])[0].matmul_dtype == means
+        assert cfgmod.read_run_config(d)[1].matmul_dtype == means
+
+
 def test_single_seed_equals_its_slot_in_the_vmapped_run(vmapped, tmp_path):
     """seeds=1 first_seed=1 (a padded 2-lane program: the same executable, nothing compiled)
     reproduces seed 1 of the 2-seed run bit for bit: evaluations and final actor."""
@@ -442,7 +493,7 @@ def test_nan_detection_names_seed_step_and_quantity(vmapped):
         (["config=walker_swim", "agent.activation.name=gelu"], "valid: elu, hard_swish, mish, relu, swim, swish"),
         (["config=walker_swim", "precision=float16"], "valid: float32, float64"),
         (["config=walker_swim", "matmul_precision=tf32"], "valid: highest, high, default"),
-        (["config=walker_swim", "matmul_dtype=float16"], "valid: auto, full, bfloat16"),
+        (["config=walker_swim", "matmul_dtype=float16"], "valid: full, bfloat16"),
         (["config=walker_swim", "env.backend=bullet"], "unknown env.backend 'bullet'; valid: auto, mjx, mujoco"),
         (["config=walker_swim", "env.native_call=python"], "unknown env.native_call 'python'; valid: auto, ffi, callback"),
         (["config=walker_swim", "total_steps=12345"], "multiple of eval_freq"),
@@ -614,24 +665,15 @@ def test_ynn_fusions_are_off_in_the_cpu_training_chunk_unless_asked_for():
     assert "__ynn_fusion" in compiled_text(tiny(*full, "xla_cpu_ynn_fusions=true"))
 
 
-def test_matmul_dtype_auto_is_bfloat16_only_for_float32_on_a_cpu_with_bfloat16_dot_instructions():
-    """matmul_dtype: bfloat16 always, full never, auto when the CPU flags name AVX-512 BF16 or AMX
-    and the run is float32 (float64 runs keep float64 products)."""
-    from swim_jax.io import hardware
-
-    zen4, old = frozenset({"avx2", "avx512f", "avx512_bf16"}), frozenset({"avx2", "avx512f"})
-    assert hardware.native_bf16(zen4) == "avx512_bf16"
-    assert hardware.native_bf16(frozenset({"amx_bf16", "avx512_bf16"})) == "amx_bf16"
-    assert hardware.native_bf16(old) is None
-    assert matmul_dtype(tiny("matmul_dtype=auto"), zen4)[0] == jnp.bfloat16
-    assert "avx512_bf16" in matmul_dtype(tiny("matmul_dtype=auto"), zen4)[1]
-    assert matmul_dtype(tiny("matmul_dtype=auto"), old)[0] is None
-    assert matmul_dtype(tiny("matmul_dtype=full"), zen4)[0] is None
-    assert matmul_dtype(tiny("matmul_dtype=bfloat16"), old)[0] == jnp.bfloat16
-    assert matmul_dtype(tiny("matmul_dtype=auto", "precision=float64"), zen4)[0] is None
-    with open("/proc/cpuinfo") as f:  # this machine's flags are the kernel's
-        assert hardware.native_bf16() == hardware.native_bf16(frozenset(
-            next(l for l in f if l.startswith("flags")).split(":", 1)[1].split()))
+def test_matmul_dtype_is_the_runs_precision_on_every_cpu_unless_bfloat16_is_asked_for():
+    """matmul_dtype: full (the default) multiplies in the run's precision whatever the CPU,
+    bfloat16 only when asked; the old per-CPU ``auto`` is refused for new runs with one line."""
+    assert cfgmod.Config().matmul_dtype == "full"
+    assert matmul_dtype(tiny())[0] is None and matmul_dtype(tiny())[1].startswith("float32 matmuls")
+    assert matmul_dtype(tiny("precision=float64"))[0] is None
+    assert matmul_dtype(tiny("matmul_dtype=bfloat16"))[0] == jnp.bfloat16
+    with pytest.raises(cfgmod.ConfigError, match="matmul_dtype=auto is no longer offered.*valid: full"):
+        tiny("matmul_dtype=auto")
 
 
 def test_bfloat16_chunk_keeps_ynn_fusions_and_runs():

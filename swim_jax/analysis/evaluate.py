@@ -159,7 +159,7 @@ def evaluate_row(t: Target, episodes: int, env_seed: int) -> dict:
     ci = stats.mean_ci(returns)
     row = {
         "run": t.run.path, "env_id": t.run.env_id, "activation": t.label, "seed": t.seed, "step": t.step,
-        "policy": {"dtype": t.policy.dtype.name, "matmul": t.policy.matmul,
+        "policy": {"dtype": t.policy.dtype.name, "matmul_dtype": t.policy.matmul_dtype,
                    "source": "final_policy.npz" if t.run.final and t.step == t.run.total_steps else "checkpoint"},
         "ours": None if t.ours_mean is None else {
             "source": t.ours_source,
@@ -298,7 +298,7 @@ def main(argv=None, our_episodes: Callable[[str, int], np.ndarray] | None = None
         t = rows[0]
         t.policy.export(args.export)
         print(f"evaluate: wrote {args.export}: {t.run.env_id} {t.label} seed {t.seed} step {t.step} "
-              f"({t.policy.dtype.name}, {t.policy.matmul} matmuls, hidden {list(t.policy.hidden)})")
+              f"({t.policy.dtype.name}, {t.policy.matmul_dtype} matmuls, hidden {list(t.policy.hidden)})")
         return 0
     t_start = time.time()
     print(f"Gymnasium {_version('gymnasium')} (MuJoCo {_version('mujoco')}): {args.episodes} episodes per seed, "

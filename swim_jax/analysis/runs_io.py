@@ -14,8 +14,13 @@ Grouping policy (documented in the report too):
   ``keep_checkpoints``, and must not share a seed (same base ``seed`` and seed index) — else refused;
 * all runs of one env must have the same ``total_steps`` and ``eval_freq``; runs that differ are
   refused with a message naming two conflicting runs (no alignment on common steps: a curve at a
-  different budget is a different experiment). Other config differences between activations of one
-  env (network size, precision, ...) are allowed but listed as warnings in the report;
+  different budget is a different experiment). ``at_step`` reads every run at that budget instead
+  (its evaluations up to that step; each run must have reached it): Table II at 300k from 1M runs;
+* all runs of one env must share their numerics: precision and the dtype their matmul products ran
+  in (``matmul_dtype``, as each stretch recorded it). Runs that differ are refused with one line
+  naming them, unless ``mixed_precision``, which compares them and marks the env
+  (:attr:`EnvGroup.mixed_precision`). Other config differences between activations of one env
+  (network size, ...) are allowed but listed as warnings in the report;
 * an incomplete run (fewer evaluations than ``1 + total_steps/eval_freq``, e.g. still training) is
   refused unless ``allow_incomplete``, in which case every run of that env is truncated to the
   evaluations all of them have, and the report says so;
@@ -79,7 +84,7 @@ class Run:
     metrics: LearningMetrics | None = None  # from metrics.csv; None without one
     setting: ActivationSetting | None = None  # the activation the label names
     sweep_suffix: str = ""  # a sweep point's other swept values, "[tau=0.01]"; "" otherwise
-    matmul_products: str | None = None  # dtype its matmul products ran in (read_matmul_products); None: not recorded
+    matmul_dtype: str = ""  # the dtype its matmul products ran in (read_matmul_dtype)
 
     @property
     def expected_evals(self) -> int:
@@ -104,7 +109,7 @@ class Curves:
     runs_without_metrics: list = field(default_factory=list)  # paths
     setting: ActivationSetting | None = None
     sweep_suffix: str = ""
-    matmul_products: list = field(default_factory=list)  # sorted dtypes of its runs' products (read_matmul_products)
+    matmul_dtypes: list = field(default_factory=list)  # sorted dtypes of its runs' products (read_matmul_dtype)
 
     @property
     def n_seeds(self) -> int:
@@ -121,6 +126,7 @@ class EnvGroup:
     curves: dict  # activation label -> Curves
     truncated_to_step: int | None = None  # set when incomplete runs were truncated
     warnings: list = field(default_factory=list)
+    mixed_precision: str | None = None  # set when runs of different numerics were compared on request
 
     @property
     def steps(self) -> np.ndarray:
@@ -144,10 +150,13 @@ def _with_default_activation_params(cfg: dict) -> dict:
     return {**cfg, "agent": {**cfg["agent"], "activation": {**act, **missing}}}
 
 
-def load_run(path: str) -> Run:
-    """Read and validate one run folder; raise :class:`RunError` (one line) if missing or corrupt."""
+def load_run(path: str, at_step: int | None = None) -> Run:
+    """Read and validate one run folder; raise :class:`RunError` (one line) if missing or corrupt.
+    ``at_step``: the run as if its budget were that many steps (its evaluations and metrics up to
+    that step; the run must have reached it)."""
     cfg_path, ev_path = _run_files(path)
     cfg = _read_config(cfg_path)
+    cfg["matmul_dtype"] = provenance.config_matmul_dtype(path, cfg)  # an old folder's auto: what it ran
     try:
         env = cfg["env"]["id"]
         act = cfg["agent"]["activation"]
@@ -167,32 +176,45 @@ def load_run(path: str) -> Run:
         raise RunError(f"{cfg_path}: total_steps={total_steps} is not a multiple of eval_freq={eval_freq} "
                        f"(swim_jax.run.train evaluates every eval_freq steps up to total_steps, so it must divide it)")
     returns = _read_returns(ev_path, 1 + total_steps // eval_freq, seeds)
+    metrics = load_metrics(path, eval_freq, total_steps, [first_seed + i for i in range(seeds)])
+    if at_step is not None:
+        if at_step <= 0 or at_step % eval_freq or at_step > total_steps:
+            raise RunError(f"{path}: --at-step {at_step} is not an evaluation step of this run (a multiple of "
+                           f"eval_freq={eval_freq} in 1..total_steps={total_steps})")
+        n = 1 + at_step // eval_freq
+        if returns.shape[0] < n:
+            raise RunError(f"{path}: has reached step {(returns.shape[0] - 1) * eval_freq}, not --at-step {at_step}")
+        returns, total_steps = returns[:n], at_step
+        if metrics is not None:
+            metrics = LearningMetrics(metrics.steps[: n - 1], {c: v[: n - 1] for c, v in metrics.values.items()})
     suffix = _point_suffix(path, act)
     return Run(
         path=path, config=_with_default_activation_params(cfg), env=env, activation=setting.label + suffix,
         total_steps=total_steps,
         eval_freq=eval_freq, seed_ids=[(base_seed, first_seed + i) for i in range(seeds)],
-        returns=returns,
-        metrics=load_metrics(path, eval_freq, total_steps, [first_seed + i for i in range(seeds)]),
-        setting=setting, sweep_suffix=suffix, matmul_products=read_matmul_products(path),
+        returns=returns, metrics=metrics,
+        setting=setting, sweep_suffix=suffix, matmul_dtype=read_matmul_dtype(path, cfg),
     )
 
 
-def read_matmul_products(path: str) -> str | None:
-    """The dtype the run's matmul products ran in: what ``matmul_dtype=auto`` resolved to on the
-    machine of each stretch (bfloat16 on a CPU with AMX / AVX-512 BF16, float32 elsewhere), from
-    ``provenance.json`` (one per start/resume; consecutive repeats merged, a change written
-    ``"bfloat16→float32"``), else from ``timing.json`` (folders written before the stretches recorded
-    it: the last stretch's); None when neither records it."""
-    stretches = [e["matmul_dtype"] for e in provenance.read(path) if isinstance(e.get("matmul_dtype"), str)]
+def read_matmul_dtype(path: str, cfg: dict) -> str:
+    """The dtype the run's matmul products ran in, per stretch as recorded
+    (``swim_jax.io.provenance.recorded_matmul_dtypes``; consecutive repeats merged, a change written
+    ``"bfloat16→float32"``); for a run that recorded nothing, what its config says (``bfloat16``, or
+    its precision)."""
+    stretches = provenance.recorded_matmul_dtypes(path)
     if stretches:
         return "→".join(d for i, d in enumerate(stretches) if i == 0 or d != stretches[i - 1])
-    try:
-        with open(os.path.join(path, "timing.json")) as f:
-            value = json.load(f).get("matmul_dtype")
-    except (OSError, ValueError, AttributeError):
-        return None
-    return value if isinstance(value, str) else None
+    if provenance.config_matmul_dtype(path, cfg) == "bfloat16":
+        return "bfloat16"
+    return str(cfg.get("precision", "float32"))
+
+
+def numerics(r: Run) -> str:
+    """The run's precision and, where they differ from it, its matmul products: ``"float32"``,
+    ``"float32, bfloat16 products"``."""
+    precision = str(r.config.get("precision", "float32"))
+    return precision if r.matmul_dtype == precision else f"{precision}, {r.matmul_dtype} products"
 
 
 def _run_files(path: str) -> tuple[str, str]:
@@ -273,7 +295,7 @@ def load_metrics(path: str, eval_freq: int, total_steps: int, seeds: list[int]) 
     return LearningMetrics(np.arange(1, n + 1, dtype=np.int64) * eval_freq, values)
 
 
-def group_runs(runs: list[Run], allow_incomplete: bool = False) -> dict[str, EnvGroup]:
+def group_runs(runs: list[Run], allow_incomplete: bool = False, mixed_precision: bool = False) -> dict[str, EnvGroup]:
     """Group runs into ``{env: EnvGroup}`` following the module's policy; raise :class:`RunError`."""
     by_env: dict[str, list[Run]] = {}
     for r in runs:
@@ -288,6 +310,10 @@ def group_runs(runs: list[Run], allow_incomplete: bool = False) -> dict[str, Env
                     f"{env}: runs differ in budget and cannot be compared: {first.path} has "
                     f"total_steps={first.total_steps} eval_freq={first.eval_freq}, {r.path} has "
                     f"total_steps={r.total_steps} eval_freq={r.eval_freq}; report them separately")
+        mixed = _numerics_differences(env_runs)
+        if mixed and not mixed_precision:
+            raise RunError(f"{env}: {mixed}; a difference between them may be one of precision: report runs of "
+                           "one precision, or pass --mixed-precision to compare them anyway (their rows are marked)")
         n_common = min(r.returns.shape[0] for r in env_runs)
         truncated = None
         incomplete = [r for r in env_runs if not r.complete]
@@ -303,8 +329,9 @@ def group_runs(runs: list[Run], allow_incomplete: bool = False) -> dict[str, Env
         curves = {}
         for act in sorted(by_act, key=_act_order):
             curves[act] = _pool(env, act, by_act[act], n_common, first.eval_freq)
-        g = EnvGroup(env, first.total_steps, first.eval_freq, curves, truncated)
-        g.warnings = _cross_activation_differences(by_act) + _matmul_products_differences(by_act)
+        g = EnvGroup(env, first.total_steps, first.eval_freq, curves, truncated, mixed_precision=mixed)
+        g.warnings = _cross_activation_differences(by_act) + ([f"compared on request (--mixed-precision): {mixed}"]
+                                                               if mixed else [])
         groups[env] = g
     return groups
 
@@ -363,9 +390,10 @@ def _point_suffix(path: str, act: dict) -> str:
     return f"[{','.join(other)}]" if other else ""
 
 
-def load_and_group(paths: list[str], allow_incomplete: bool = False) -> dict[str, EnvGroup]:
-    """:func:`load_run` on every path (sweep folders expanded to their points, duplicates
-    refused), then :func:`group_runs`."""
+def load_and_group(paths: list[str], allow_incomplete: bool = False, at_step: int | None = None,
+                   mixed_precision: bool = False) -> dict[str, EnvGroup]:
+    """:func:`load_run` on every path (at ``at_step`` when given; sweep folders expanded to their
+    points, duplicates refused), then :func:`group_runs`."""
     paths = expand_sweeps(paths)
     seen = {}
     for p in paths:
@@ -373,7 +401,8 @@ def load_and_group(paths: list[str], allow_incomplete: bool = False) -> dict[str
         if key in seen:
             raise RunError(f"{p}: given twice (also as {seen[key]})")
         seen[key] = p
-    return group_runs([load_run(p) for p in paths], allow_incomplete=allow_incomplete)
+    return group_runs([load_run(p, at_step) for p in paths], allow_incomplete=allow_incomplete,
+                      mixed_precision=mixed_precision)
 
 
 def _pool(env: str, act: str, runs: list[Run], n: int, eval_freq: int) -> Curves:
@@ -395,7 +424,7 @@ def _pool(env: str, act: str, runs: list[Run], n: int, eval_freq: int) -> Curves
     steps = np.arange(n, dtype=np.int64) * eval_freq
     return Curves(env, act, steps, returns, [r.path for r in runs], _pool_metrics(runs, n - 1, eval_freq),
                   [r.path for r in runs if r.metrics is None], runs[0].setting, runs[0].sweep_suffix,
-                  sorted({r.matmul_products for r in runs if r.matmul_products}))
+                  sorted({r.matmul_dtype for r in runs}))
 
 
 def _pool_metrics(runs: list[Run], n_chunks: int, eval_freq: int) -> LearningMetrics | None:
@@ -415,7 +444,7 @@ def _pool_metrics(runs: list[Run], n_chunks: int, eval_freq: int) -> LearningMet
 
 
 def _cross_activation_differences(by_act: dict[str, list[Run]]) -> list[str]:
-    ignored = POOL_IGNORED_KEYS | {"agent.activation"}
+    ignored = POOL_IGNORED_KEYS | {"agent.activation", "precision", "matmul_dtype"}  # (numerics: refused above)
     acts = sorted(by_act, key=_act_order)
     if len(acts) < 2:
         return []
@@ -429,20 +458,16 @@ def _cross_activation_differences(by_act: dict[str, list[Run]]) -> list[str]:
     return out
 
 
-def _matmul_products_differences(by_act: dict[str, list[Run]]) -> list[str]:
-    """A warning when the runs of one env did not all multiply in the same dtype (or one changed it
-    between stretches). The configs can agree
-    (``matmul_dtype: auto``) while the machines resolved it differently (bfloat16 on a CPU with
-    AMX / AVX-512 BF16, float32 elsewhere), which the config comparison cannot see."""
-    per_act = {a: ds for a in sorted(by_act, key=_act_order)
-               if (ds := sorted({r.matmul_products for r in by_act[a] if r.matmul_products}))}
-    values = {d for ds in per_act.values() for d in ds}
-    if len(values) < 2 and not any("→" in d for d in values):  # one dtype, and no run changed it
-        return []
-    listed = ", ".join(f"{a} {'+'.join(ds)}" for a, ds in per_act.items())
-    return [f"runs differ in the dtype of their matmul products (timing.json matmul_dtype): {listed}; "
-            f"a difference between these activations may be partly one of precision "
-            f"(set matmul_dtype=full or bfloat16 to fix it across machines)"]
+def _numerics_differences(runs: list[Run]) -> str | None:
+    """None when every run has the same :func:`numerics` and none changed its products between
+    stretches; else the runs by numerics in words (``"runs differ in precision or matmul_dtype:
+    float32: walker_swim; float32, bfloat16 products: walker_swish, walker_relu"``)."""
+    by: dict[str, list[str]] = {}
+    for r in runs:
+        by.setdefault(numerics(r), []).append(os.path.basename(os.path.normpath(r.path)))
+    if len(by) < 2 and not any("→" in r.matmul_dtype for r in runs):
+        return None
+    return "runs differ in precision or matmul_dtype: " + "; ".join(f"{n}: {', '.join(ps)}" for n, ps in by.items())
 
 
 def _flat(d: dict, ignored, prefix: str = "") -> dict:

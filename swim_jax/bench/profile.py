@@ -217,7 +217,7 @@ def measure(config: str, lanes: int, steps: int, overrides=(), log=print) -> dic
     res = summarise(profile_call(lambda: run(3), hlo_text), hlo_text, steps)
     return {"benchmark": "profile", "config": config, "overrides": list(overrides), "lanes": lanes, "steps": steps,
             "env": cfg.env.id, "backend": cfg.env.backend, "precision": cfg.precision,
-            "matmul": programs.matmul_dtype(cfg)[1], "timed_ms_per_step": timed, **res,
+            "matmul_dtype": programs.matmul_dtype(cfg)[1], "timed_ms_per_step": timed, **res,
             "machine": {"platform": jax.devices()[0].platform, "cpu": cpu_model(), "cpus": len(os.sched_getaffinity(0)),
                         "jax": jax.__version__},
             "time": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
@@ -225,7 +225,7 @@ def measure(config: str, lanes: int, steps: int, overrides=(), log=print) -> dic
 
 def markdown(res: dict, top: int = 20) -> str:
     """The profile as two Markdown tables: time by kind, and the ``top`` slowest products."""
-    lines = [f"{res['env']} ({res['backend']}), {res['lanes']} lanes, {res['precision']}, {res['matmul']}; "
+    lines = [f"{res['env']} ({res['backend']}), {res['lanes']} lanes, {res['precision']}, {res['matmul_dtype']}; "
              f"{res['timed_ms_per_step']:.2f} ms per step timed, {res['wall_ms_per_step']:.2f} profiled; "
              f"XLA operations busy {res['busy_ms_per_step']:.2f} ms per step (summed over threads), "
              f"matrix products {res['products_ms_per_step']:.2f} ms ({res['products_share_of_busy']:.0%}) "

@@ -51,6 +51,10 @@ class Checkpointer:
         stored), from its metadata alone."""
         return set(self.manager.item_metadata(int(step)).tree.keys())
 
+    def stored_shape(self, step: int, key: str) -> tuple[int, ...]:
+        """The shape of leaf ``key`` in checkpoint ``step``, from its metadata alone."""
+        return tuple(self.manager.item_metadata(int(step)).tree[key].shape)
+
     @staticmethod
     def keys_of(tree) -> set[str]:
         """The leaf keys :meth:`save` stores for ``tree`` (arrays or ShapeDtypeStructs)."""

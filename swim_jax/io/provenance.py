@@ -102,3 +102,38 @@ def record(run_dir: str, step: int, argv: list[str] | None = None, facts: dict |
         f.write("\n")
     os.replace(path + ".tmp", path)
     return e
+
+
+# ------------------------------------------------------------------------------------------------
+# the products a run multiplied in (config key matmul_dtype)
+# ------------------------------------------------------------------------------------------------
+
+MATMUL_DTYPE_LEGACY = "auto"  # offered until 2026-12-06: bfloat16 on CPUs with bfloat16 dot instructions
+
+
+def recorded_matmul_dtypes(run_dir: str) -> list[str]:
+    """The dtype the run's Dense products ran in, per stretch (start or resume) in order:
+    provenance.json's ``matmul_dtype`` entries, else timing.json's (folders written before the
+    stretches recorded it hold only the last stretch's); empty when neither records it."""
+    stretches = [e["matmul_dtype"] for e in read(run_dir) if isinstance(e.get("matmul_dtype"), str)]
+    if stretches:
+        return stretches
+    try:
+        with open(os.path.join(run_dir, "timing.json")) as f:
+            value = json.load(f).get("matmul_dtype")
+    except (OSError, ValueError, AttributeError):
+        return []
+    return [value] if isinstance(value, str) else []
+
+
+def config_matmul_dtype(run_dir: str, cfg: dict) -> str:
+    """The run folder's ``matmul_dtype`` as the code takes it today, ``"full"`` (products in the
+    run's precision) or ``"bfloat16"``. A folder written with ``auto`` (the old default, which meant
+    bfloat16 on a CPU with AVX-512 BF16 / AMX and full elsewhere) means what its first stretch
+    recorded (:func:`recorded_matmul_dtypes`), so it resumes, reports and exports as it ran; with no
+    record (folders from before ``auto`` could mean bfloat16) it means full."""
+    choice = cfg.get("matmul_dtype", MATMUL_DTYPE_LEGACY)
+    if choice != MATMUL_DTYPE_LEGACY:
+        return choice
+    stretches = recorded_matmul_dtypes(run_dir)
+    return "bfloat16" if stretches and stretches[0] == "bfloat16" else "full"

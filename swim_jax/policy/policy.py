@@ -11,8 +11,8 @@
 the registry's ``numpy`` entries) with its parameters per hidden layer: the config's values, a
 sweep point's own value (a point folder's config.yaml), or the learned k/β/α of a learnable run
 (the ``act_<i>/<param>`` leaves of the actor). Runs whose Dense layers multiplied in bfloat16
-(``matmul_dtype``; ``timing.json`` records what ``auto`` chose) get the same rounding: inputs,
-kernels and biases rounded to bfloat16, products summed in float32.
+(``matmul_dtype=bfloat16``, or an old folder's ``auto`` that chose it) get the same rounding:
+inputs, kernels and biases rounded to bfloat16, products summed in float32.
 
 Where the parameters come from: ``final_policy.npz`` (the actor at ``total_steps``, leading axis =
 seed), or with ``step=S`` the orbax checkpoint at step S (``checkpoints/<S>/``; reading one needs
@@ -24,8 +24,8 @@ XML the project's envs load too).
 An exported file (:meth:`Policy.export`, :func:`load_exported`) is an ``.npz`` with the arrays
 ``W0 … Wn`` (kernels ``[in, out]``), ``b0 … bn`` and ``header``, a JSON string: ``format``
 (``"swim-jax-policy"``), ``version``, ``env_id``, ``obs_size``, ``action_size``, ``hidden``,
-``activation``, ``layer_params`` (one ``{param: value}`` per hidden layer), ``dtype``, ``matmul``
-(``"full"`` or ``"bfloat16"``), ``action_low``, ``action_high``, ``source`` (run, seed, step). README
+``activation``, ``layer_params`` (one ``{param: value}`` per hidden layer), ``dtype``, ``matmul_dtype``
+(``"full"`` or ``"bfloat16"``; files written before 2026-12-06 call it ``matmul``), ``action_low``, ``action_high``, ``source`` (run, seed, step). README
 (Usage, "Trained policies outside the project") shows the NumPy lines that run it without this
 project.
 
@@ -46,13 +46,13 @@ import numpy as np
 import yaml
 
 from swim_jax.policy import activations as activations_np
-from swim_jax.io import hardware
+from swim_jax.io import provenance
 
 FINAL = "final_policy.npz"
 CHECKPOINTS = "checkpoints"
 EXPORT_FORMAT = "swim-jax-policy"
-EXPORT_VERSION = 1
-MATMULS = ("full", "bfloat16")
+EXPORT_VERSION = 2  # 2: the header key "matmul" became "matmul_dtype" (version 1 files still load)
+MATMUL_DTYPES = ("full", "bfloat16")
 
 
 class PolicyError(ValueError):
@@ -78,7 +78,7 @@ class Policy:
     """A deterministic TD3 actor in NumPy: ``policy(obs) -> action`` (see the module docstring).
 
     ``kernels[i]`` is ``[in, out]`` (hidden layers, then the head), ``layer_params[i]`` the
-    activation's parameters in hidden layer ``i``; ``matmul`` is ``"full"`` or ``"bfloat16"``."""
+    activation's parameters in hidden layer ``i``; ``matmul_dtype`` is ``"full"`` or ``"bfloat16"``."""
 
     env_id: str
     kernels: tuple[np.ndarray, ...]
@@ -88,15 +88,15 @@ class Policy:
     action_low: np.ndarray
     action_high: np.ndarray
     dtype: np.dtype = np.dtype(np.float32)
-    matmul: str = "full"
+    matmul_dtype: str = "full"
     source: Mapping = field(default_factory=dict)
 
     def __post_init__(self):
         dt = np.dtype(self.dtype)
         if dt not in (np.dtype(np.float32), np.dtype(np.float64)):
             raise PolicyError(f"dtype {dt} is not supported; valid: float32, float64")
-        if self.matmul not in MATMULS:
-            raise PolicyError(f"unknown matmul {self.matmul!r}; valid: {', '.join(MATMULS)}")
+        if self.matmul_dtype not in MATMUL_DTYPES:
+            raise PolicyError(f"unknown matmul_dtype {self.matmul_dtype!r}; valid: {', '.join(MATMUL_DTYPES)}")
         try:
             fn = activations_np.get(self.activation)
         except ValueError as e:
@@ -129,7 +129,7 @@ class Policy:
         set_("action_low", low)
         set_("action_high", high)
         set_("source", dict(self.source))
-        if self.matmul == "bfloat16":  # the rounded operands, once
+        if self.matmul_dtype == "bfloat16":  # the rounded operands, once
             set_("_operands", tuple((round_bfloat16(w), round_bfloat16(b)) for w, b in zip(kernels, biases)))
         else:
             set_("_operands", tuple(zip(kernels, biases)))
@@ -156,7 +156,7 @@ class Policy:
         x = x.astype(self.dtype)
         last = len(self._operands) - 1
         for i, (w, b) in enumerate(self._operands):
-            if self.matmul == "bfloat16":
+            if self.matmul_dtype == "bfloat16":
                 x = round_bfloat16(x)
             x = x @ w + b
             if i < last:
@@ -172,7 +172,7 @@ class Policy:
             "format": EXPORT_FORMAT, "version": EXPORT_VERSION, "env_id": self.env_id,
             "obs_size": self.obs_size, "action_size": self.action_size, "hidden": list(self.hidden),
             "activation": self.activation, "layer_params": [dict(p) for p in self.layer_params],
-            "dtype": self.dtype.name, "matmul": self.matmul,
+            "dtype": self.dtype.name, "matmul_dtype": self.matmul_dtype,
             "action_low": self.action_low.tolist(), "action_high": self.action_high.tolist(),
             "source": dict(self.source),
         }
@@ -196,7 +196,8 @@ def load_exported(path: str) -> Policy:
         n = len(head["hidden"]) + 1
         return Policy(head["env_id"], tuple(arrays[f"W{i}"] for i in range(n)), tuple(arrays[f"b{i}"] for i in range(n)),
                       head["activation"], tuple(head["layer_params"]), np.asarray(head["action_low"]),
-                      np.asarray(head["action_high"]), np.dtype(head["dtype"]), head["matmul"], head.get("source", {}))
+                      np.asarray(head["action_high"]), np.dtype(head["dtype"]), head.get("matmul_dtype", head.get("matmul")),
+                      head.get("source", {}))
     except PolicyError as e:
         raise PolicyError(f"{path}: {e}") from None
     except (OSError, ValueError, KeyError, TypeError, EOFError) as e:
@@ -295,14 +296,15 @@ def run_folders(path: str) -> list[str]:
     return [found[i] for i in sorted(found)]
 
 
-def load_policy(run_dir: str, seed: int = 0, step: int | None = None, dtype=None, matmul: str | None = None) -> Policy:
+def load_policy(run_dir: str, seed: int = 0, step: int | None = None, dtype=None,
+                matmul_dtype: str | None = None) -> Policy:
     """The :class:`Policy` of seed id ``seed`` of ``run_dir`` (a run folder or a sweep point's
     folder; an exported ``.npz`` file is read with :func:`load_exported`): from final_policy.npz, or
     at ``step`` (final_policy.npz at ``total_steps``, else the checkpoint at that step). ``dtype``
-    (default: the run's precision) and ``matmul`` (default: what the run multiplied in) override."""
+    (default: the run's precision) and ``matmul_dtype`` (default: what the run multiplied in) override."""
     if os.path.isfile(run_dir):
         policy = load_exported(run_dir)
-        return policy if dtype is None and matmul is None else _with(policy, dtype, matmul)
+        return policy if dtype is None and matmul_dtype is None else _with(policy, dtype, matmul_dtype)
     run = run_policies(run_dir)
     pos = run.seed_position(seed)
     if step is None:
@@ -326,7 +328,7 @@ def load_policy(run_dir: str, seed: int = 0, step: int | None = None, dtype=None
         except ValueError as e:
             raise PolicyError(f"{run.checkpoints}/{step}: {_one_line(e)}") from None
     return policy_from_leaves(flat, run.config, run_dir, _run_dtype(run.config) if dtype is None else dtype,
-                              run_matmul(run_dir, run.config) if matmul is None else matmul,
+                              provenance.config_matmul_dtype(run_dir, run.config) if matmul_dtype is None else matmul_dtype,
                               {"run": os.path.abspath(run_dir), "seed": int(seed), "step": step})
 
 
@@ -352,7 +354,7 @@ def actor_leaf_shapes(cfg: Mapping, obs_size: int, action_size: int, where: str 
     return tuple(shape.get(n.split("/", 2)[2], ()) for n in actor_leaf_names(cfg, where))
 
 
-def policy_from_leaves(flat: Mapping[str, np.ndarray], cfg: Mapping, where: str, dtype, matmul: str,
+def policy_from_leaves(flat: Mapping[str, np.ndarray], cfg: Mapping, where: str, dtype, matmul_dtype: str,
                        source: Mapping | None = None, spec: tuple | None = None) -> Policy:
     """The :class:`Policy` of one seed's actor leaves (``{name: array}``, no seed axis) under the
     run config ``cfg`` (hidden widths, activation and its parameters, env id); ``spec``: the env's
@@ -376,7 +378,7 @@ def policy_from_leaves(flat: Mapping[str, np.ndarray], cfg: Mapping, where: str,
         raise PolicyError(f"{where}: the actor maps {kernels[0].shape[0]} observations to {kernels[-1].shape[1]} "
                           f"actions, {cfg['env']['id']} has {obs_size} and {low.size}")
     try:
-        return Policy(cfg["env"]["id"], kernels, biases, name, params, low, high, np.dtype(dtype), matmul, source or {})
+        return Policy(cfg["env"]["id"], kernels, biases, name, params, low, high, np.dtype(dtype), matmul_dtype, source or {})
     except PolicyError as e:
         raise PolicyError(f"{where}: {e}") from None
 
@@ -424,36 +426,15 @@ def env_spec(env_id: str) -> tuple[int, np.ndarray, np.ndarray]:
     return obs_size, ctrl[:, 0].copy(), ctrl[:, 1].copy()
 
 
-def run_matmul(run_dir: str, cfg: Mapping) -> str:
-    """What the run's Dense layers multiplied in, ``"bfloat16"`` or ``"full"``: timing.json's
-    ``matmul_dtype`` (written since ``matmul_dtype=auto`` can mean bfloat16); without that key (an
-    older run, when ``auto`` meant full) the config's choice; with no timing.json (still training)
-    ``auto``'s rule on this machine (float32 and a CPU with bfloat16 dot instructions)."""
-    choice = cfg.get("matmul_dtype", "auto")
-    timing = os.path.join(run_dir, "timing.json")
-    if os.path.isfile(timing):
-        try:
-            with open(timing) as f:
-                recorded = json.load(f).get("matmul_dtype")
-        except (OSError, ValueError, AttributeError):
-            recorded = None
-        if recorded is not None:
-            return "bfloat16" if recorded == "bfloat16" else "full"
-        return "bfloat16" if choice == "bfloat16" else "full"
-    if choice == "auto":
-        return "bfloat16" if _run_dtype(cfg) == np.float32 and hardware.native_bf16() else "full"
-    return "bfloat16" if choice == "bfloat16" else "full"
-
-
 # ------------------------------------------------------------------------------------------------
 # helpers
 # ------------------------------------------------------------------------------------------------
 
 
-def _with(policy: Policy, dtype, matmul) -> Policy:
+def _with(policy: Policy, dtype, matmul_dtype) -> Policy:
     return Policy(policy.env_id, policy.kernels, policy.biases, policy.activation, policy.layer_params,
                   policy.action_low, policy.action_high, policy.dtype if dtype is None else np.dtype(dtype),
-                  policy.matmul if matmul is None else matmul, policy.source)
+                  policy.matmul_dtype if matmul_dtype is None else matmul_dtype, policy.source)
 
 
 def _read_config(run_dir: str) -> dict:

@@ -14,11 +14,9 @@ own episodes (the same returns) and the rest extend them. Needs JAX
 
 from __future__ import annotations
 
-import dataclasses
 import os
 
 import numpy as np
-import yaml
 
 
 class OurEvaluationError(ValueError):
@@ -35,18 +33,12 @@ def our_episodes(run_dir: str, episodes: int) -> np.ndarray:
 
     from swim_jax import config as cfgmod
     from swim_jax.agents import loop
-    from swim_jax.policy.policy import run_matmul
     from swim_jax.run.programs import build
     from swim_jax.run.render import unflatten
 
     if os.path.isfile(os.path.join(run_dir, "point.json")) or os.path.isdir(os.path.join(run_dir, "points")):
         raise OurEvaluationError(f"{run_dir}: a sweep or a sweep point; --ours-episodes evaluates plain runs only")
-    path = os.path.join(run_dir, "config.yaml")
-    with open(path) as f:
-        raw = yaml.safe_load(f)
-    cfg = cfgmod.validate(cfgmod.from_dict(cfgmod.Config, raw))
-    # the products the run multiplied in (matmul_dtype=auto resolves per CPU; timing.json records it)
-    cfg = dataclasses.replace(cfg, matmul_dtype="bfloat16" if run_matmul(run_dir, raw) == "bfloat16" else "full")
+    _, cfg = cfgmod.read_run_config(run_dir)  # (as the run multiplied: an old folder's auto included)
     policy_file = os.path.join(run_dir, "final_policy.npz")
     if not os.path.isfile(policy_file):
         raise OurEvaluationError(f"{run_dir}: no final_policy.npz (the run has not finished)")

@@ -17,6 +17,7 @@ import time
 
 import jax
 import numpy as np
+import yaml
 
 from swim_jax import config as cfgmod
 from swim_jax.run import learned_params
@@ -128,6 +129,24 @@ class RunFolder:
                 with open(os.path.join(out_dir, "point.json"), "w") as f:
                     json.dump({"label": cfgmod.point_label(point), "values": point}, f, indent=1)
 
+    def grow_budget(self) -> int | None:
+        """When resuming with a larger ``total_steps`` than the folder's config.yaml holds: write the
+        configs again with the new budget (the run's and every point's) and remove the final policies
+        of the old budget (written again when the run reaches the new one); returns the old budget,
+        or None when it has not changed."""
+        path = os.path.join(self.run_dir, "config.yaml")
+        with open(path) as f:
+            old = int((yaml.safe_load(f) or {}).get("total_steps", self.cfg.total_steps))
+        if old == self.cfg.total_steps or not self.writes:
+            return None if old == self.cfg.total_steps else old
+        for out_dir, point_cfg in self.outputs:
+            _write_text(os.path.join(out_dir, "config.yaml"), cfgmod.dump(point_cfg))
+            with contextlib.suppress(FileNotFoundError):
+                os.remove(os.path.join(out_dir, "final_policy.npz"))
+        if all(d != self.run_dir for d, _ in self.outputs):
+            _write_text(path, cfgmod.dump(self.cfg))
+        return old
+
     def start_logs(self, restored_step: int | None, closing: contextlib.ExitStack) -> None:
         """Cut the logs after the checkpoint at ``restored_step``, or (None: training starts at step
         0) remove them; then open the TensorBoard writers (closed by ``closing``) if configured."""
@@ -200,3 +219,10 @@ class RunFolder:
         for out_dir in {self.run_dir, *(d for d, _ in self.outputs)}:
             with open(os.path.join(out_dir, "timing.json"), "w") as f:
                 json.dump(timing, f, indent=2)
+
+
+def _write_text(path: str, text: str) -> None:
+    """Write ``path`` whole through a temporary file (a kill leaves the old file or the new one)."""
+    with open(path + ".tmp", "w") as f:
+        f.write(text)
+    os.replace(path + ".tmp", path)

@@ -24,7 +24,6 @@ from swim_jax import envs
 from swim_jax.agents import loop
 from swim_jax.agents.td3 import TD3
 from swim_jax import config as cfgmod
-from swim_jax.io import hardware
 from swim_jax.placement import lane_groups, stepping
 from swim_jax.placement.layout import LaneLayout
 from swim_jax.config import Config
@@ -77,18 +76,17 @@ def build(cfg: Config):
     return env, eval_env, agent
 
 
-def matmul_dtype(cfg: Config, cpu_flags: frozenset[str] | None = None) -> tuple[object, str]:
-    """The Dense layers' matmul type (None = the run's precision, or ``jnp.bfloat16``) and why, in
-    words for the start-up line. ``bfloat16``: always; ``full``: never; ``auto``: bfloat16 when the
-    run is float32 on a CPU backend whose CPU has bfloat16 dot instructions (AVX-512 BF16 or AMX in
-    ``cpu_flags``, default this machine's: ``swim_jax.io.hardware``), else the run's precision; auto's
-    choice rests on learning parity with float32 on HalfCheetah-v5 (docs/PERFORMANCE.md: bf16-learning-parity)."""
+def matmul_dtype(cfg: Config) -> tuple[object, str]:
+    """The Dense layers' product dtype (None = the run's precision, or ``jnp.bfloat16``) and, in
+    words for the start-up line, what it is: ``matmul_dtype=full`` (the default) multiplies in the
+    run's precision on every machine, ``bfloat16`` rounds the products' operands to bfloat16 (sums
+    in float32). An old folder's ``auto`` is resolved before a run is built
+    (``swim_jax.io.provenance.config_matmul_dtype``)."""
     if cfg.matmul_dtype == "bfloat16":
         return jnp.bfloat16, "bfloat16 matmuls (matmul_dtype=bfloat16)"
-    flag = hardware.native_bf16(cpu_flags)
-    if cfg.matmul_dtype == "auto" and flag and cfg.precision == "float32" and jax.default_backend() == "cpu":
-        return jnp.bfloat16, f"bfloat16 matmuls (matmul_dtype=auto: this CPU has {flag}; full: float32)"
-    return None, f"{cfg.precision} matmuls"
+    if cfg.matmul_dtype != "full":
+        raise cfgmod.ConfigError(f"matmul_dtype={cfg.matmul_dtype!r} cannot be built; valid: full, bfloat16")
+    return None, f"{cfg.precision} matmuls (matmul_dtype=full)"
 
 
 @dataclass

@@ -114,8 +114,7 @@ def load_policy(run_dir: str, seed: int):
         if not os.path.isfile(os.path.join(run_dir, name)):
             raise RenderError(f"{run_dir}: missing {name} (not a finished swim_jax.run.train run folder?)")
     try:
-        with open(os.path.join(run_dir, "config.yaml")) as f:
-            cfg = cfgmod.validate(cfgmod.from_dict(cfgmod.Config, yaml.safe_load(f)))
+        _, cfg = cfgmod.read_run_config(run_dir)
     except (yaml.YAMLError, cfgmod.ConfigError, OSError, TypeError, ValueError) as e:
         raise RenderError(f"{run_dir}/config.yaml: {' '.join(str(e).split())[:300]}") from None
     pos = seed - cfg.first_seed

@@ -108,8 +108,12 @@ def load(path: str, out_dir: str | None = None) -> Study:
     """Read and validate the study file at ``path`` (``out_dir`` overrides its own); every cell's
     config is resolved and validated, cells that would pool as one (env, activation) are refused,
     and so is an existing cell folder whose config.yaml differs from the cell's. :class:`StudyError`."""
-    if not os.path.isfile(path):
-        raise StudyError(f"study file {path} not found (the paper's: configs/studies/table2.yaml)")
+    if not os.path.isfile(path):  # a bare name (table2) is a shipped study, configs/studies/<name>.yaml
+        shipped = cfgmod.shipped_study(path)
+        if shipped is None:
+            raise StudyError(f"study file {path} not found; or a shipped study by name: "
+                             f"{', '.join(cfgmod.available_studies())} (table2: the paper's)")
+        path = shipped
     with open(path) as f:
         try:
             data = yaml.safe_load(f) or {}
@@ -240,21 +244,28 @@ def _comparable(cfg: dict) -> dict:
 
 
 def _check_existing(c: Cell) -> None:
-    """Refuse a cell folder whose config.yaml is not this cell's (the study file or out_dir changed)."""
+    """Refuse a cell folder whose config.yaml is not this cell's (the study file or out_dir changed).
+    Three differences are the same cell: ``env.backend=auto`` in the study (the folder recorded what it
+    chose), an old folder's ``matmul_dtype: auto`` (read as what its run multiplied in), and a
+    study ``total_steps`` above the folder's (the budget grows: the cell resumes to it)."""
     path = os.path.join(c.run_dir, "config.yaml")
     if not os.path.isfile(path):
         return
     with open(path) as f:
         recorded = yaml.safe_load(f) or {}
+    recorded = {**recorded, "matmul_dtype": provenance.config_matmul_dtype(c.run_dir, recorded)}
     want = cfgmod.to_dict(c.cfg)
     if want["env"]["backend"] == "auto":  # the cell's run recorded what auto chose where it started
         want["env"]["backend"] = (recorded.get("env") or {}).get("backend", "auto")
-    diff = sorted(k for k in cfgmod._flatten_paths(_comparable(want)).keys() | cfgmod._flatten_paths(_comparable(recorded)).keys()
-                  if cfgmod._flatten_paths(_comparable(want)).get(k) != cfgmod._flatten_paths(_comparable(recorded)).get(k))
+    if isinstance(recorded.get("total_steps"), int) and want["total_steps"] > recorded["total_steps"]:
+        want["total_steps"] = recorded["total_steps"]  # a grown budget: run_cell resumes the cell to it
+    flat_want, flat_recorded = cfgmod._flatten_paths(_comparable(want)), cfgmod._flatten_paths(_comparable(recorded))
+    diff = sorted(k for k in flat_want.keys() | flat_recorded.keys() if flat_want.get(k) != flat_recorded.get(k))
     if diff:
         k = diff[0]
-        raise StudyError(f"cell {c.name}: {path} was started with {k}={cfgmod._flatten_paths(recorded).get(k)!r}, the "
-                         f"study now gives {k}={cfgmod._flatten_paths(want).get(k)!r}; restore the study file or "
+        hint = ("; a budget can only grow" if k == "total_steps" else "")
+        raise StudyError(f"cell {c.name}: {path} was started with {k}={flat_recorded.get(k)!r}, the "
+                         f"study now gives {k}={flat_want.get(k)!r}{hint}; restore the study file or "
                          "use another --out-dir")
 
 
@@ -515,7 +526,7 @@ def study_section(study: Study, states: list[CellState], trained: Study | None =
     times, machines and matmul products (provenance, timing.json), code, and the exact commands
     that train them into ``trained.out_dir`` (``trained``: the study as run, when ``study`` reads
     curated copies of its cells elsewhere; default ``study``)."""
-    from swim_jax.analysis.runs_io import read_matmul_products
+    from swim_jax.analysis.runs_io import read_matmul_dtype
 
     trained = trained or study
     done = [s for s in states if s.state == "done"]
@@ -535,7 +546,7 @@ def study_section(study: Study, states: list[CellState], trained: Study | None =
         cpus = sorted({e.get("cpu", "?") for e in prov})
         commits = sorted({(e.get("git") or {}).get("commit", "?")[:12] for e in prov})
         lines.append(f"| {s.cell.name} | {s.state} | {s.step} | {fmt_duration(s.wall_s) if s.wall_s else ''} | "
-                     f"{'; '.join(cpus)} | {read_matmul_products(s.cell.run_dir) or ''} | {', '.join(commits)} |")
+                     f"{'; '.join(cpus)} | {_matmul_dtype(s.cell.run_dir, read_matmul_dtype)} | {', '.join(commits)} |")
     lines += ["", f"Code: {', '.join(_git_commits(done)) or 'unknown'} (git commit of every start or resume, "
               "provenance.json in each cell).", "",
               "Commands (each cell is resumable; the first runs them all):", "", "```",
@@ -546,21 +557,43 @@ def study_section(study: Study, states: list[CellState], trained: Study | None =
     return "\n".join(lines)
 
 
+def _matmul_dtype(run_dir: str, read) -> str:
+    """The cell's matmul products as recorded (``read``: runs_io.read_matmul_dtype), '' before it starts."""
+    path = os.path.join(run_dir, "config.yaml")
+    if not os.path.isfile(path):
+        return ""
+    with open(path) as f:
+        return read(run_dir, yaml.safe_load(f) or {})
+
+
+def _reached(c: Cell, step: int) -> bool:
+    """Whether cell ``c`` has evaluated at ``step`` (or beyond)."""
+    last = _last_evaluation(c.run_dir)
+    return last is not None and last[0] >= step
+
+
 def write_report(study: Study, out: str, bench: list[str], force: bool, log: Callable[[str], None] = print,
-                 trained: Study | None = None, command: list[str] | None = None) -> int:
+                 trained: Study | None = None, command: list[str] | None = None, at_step: int | None = None,
+                 mixed_precision: bool = False) -> int:
     """``--report``: swim_jax.analysis.report over the finished cells into ``out``, with :func:`study_section`
     (``trained``: see there). ``command``: the command line the report names as its origin (default:
-    the ``--report`` command that writes it)."""
+    the ``--report`` command that writes it). ``at_step``: every cell that has reached that step, read
+    at that budget (the report's ``--at-step``); ``mixed_precision``: the report's ``--mixed-precision``."""
     from swim_jax.analysis import report
 
     states = [cell_state(c) for c in study.cells]
+    if at_step is not None:  # a cell that reached the step counts as done at that budget
+        states = [dataclasses.replace(s, state="done") if _reached(s.cell, at_step) else s for s in states]
     done = [shown_path(s.cell.run_dir) for s in states if s.state == "done"]
     if not done:
-        raise StudyError(f"no finished cell in {study.out_dir} yet; --status shows where the cells stand")
+        raise StudyError(f"no finished cell in {study.out_dir} yet"
+                         f"{f' (none has reached step {at_step})' if at_step else ''}; --status shows where the cells stand")
     argv = [*done, "--out", out, *itertools.chain.from_iterable(("--bench", b) for b in bench)]
+    argv += (["--at-step", str(at_step)] if at_step is not None else []) + (["--mixed-precision"] if mixed_precision else [])
     args = report.parse_args(argv + (["--force"] if force else []))
+    extra = (["--at-step", str(at_step)] if at_step is not None else []) + (["--mixed-precision"] if mixed_precision else [])
     command = shlex.join(command or ["python", "-m", "swim_jax.study", shown_path(study.path),
-                                     "--out-dir", study.out_dir, "--report", out])
+                                     "--out-dir", study.out_dir, "--report", out, *extra])
     try:
         report.check_out(out, force)
         files = report.build(args, command)
@@ -588,7 +621,8 @@ def write_report(study: Study, out: str, bench: list[str], force: bool, log: Cal
 CURATE_SKIPS = ("checkpoints", LOCK_FILE)  # what a curated cell leaves out (resumable state, the lock)
 
 
-def curate(study: Study, out: str, bench: list[str], log: Callable[[str], None] = print) -> int:
+def curate(study: Study, out: str, bench: list[str], log: Callable[[str], None] = print,
+           mixed_precision: bool = False) -> int:
     """``--curate DIR``: copy every finished cell not yet in ``DIR`` to ``DIR/<cell>/`` without its
     checkpoints (evaluations, metrics, final policies, config, timing, provenance, train.log stay),
     then write the report over all cells in ``DIR`` to ``DIR/report/`` (rewritten each time: it is
@@ -611,7 +645,8 @@ def curate(study: Study, out: str, bench: list[str], log: Callable[[str], None] 
     command = ["python", "-m", "swim_jax.study", shown_path(study.path), "--out-dir", study.out_dir,
                "--curate", out]
     return write_report(curated, os.path.join(out, "report"), bench, force=True, log=log, trained=study,
-                        command=command)
+                        command=command + (["--mixed-precision"] if mixed_precision else []),
+                        mixed_precision=mixed_precision)
 
 
 def slurm_script(study: Study, cpus: int, hours: int, python: str = sys.executable) -> str:
@@ -657,6 +692,12 @@ def _parser():
     p.add_argument("--bench", action="append", default=[], metavar="FILE",
                    help="with --report: activation benchmark JSON for Table III (repeatable)")
     p.add_argument("--force", action="store_true", help="with --report: write into a non-empty DIR")
+    p.add_argument("--at-step", type=int, default=None, metavar="N",
+                   help="with --report: every cell that has reached step N, read at that budget (e.g. Table II "
+                        "at 300000 from 1M cells)")
+    p.add_argument("--mixed-precision", action="store_true",
+                   help="with --report/--curate: compare cells that differ in precision or matmul_dtype "
+                        "(refused without it; their rows are marked)")
     p.add_argument("--cpus-per-task", type=int, default=2, help="with --slurm: cores per cell (default 2)")
     p.add_argument("--hours", type=int, default=24, help="with --slurm: time limit per task in hours (default 24)")
     return p
@@ -671,6 +712,10 @@ def main(argv: list[str] | None = None) -> int:
             raise StudyError(f"--parallel {args.parallel}: must be between 1 and the {cores} cores this process may use")
         if args.force and not args.report or args.bench and not (args.report or args.curate):
             raise StudyError("--bench goes with --report DIR or --curate DIR, --force with --report DIR")
+        if args.at_step is not None and not args.report or args.mixed_precision and not (args.report or args.curate):
+            raise StudyError("--at-step goes with --report DIR, --mixed-precision with --report DIR or --curate DIR")
+        if args.at_step is not None and args.at_step < 1:
+            raise StudyError(f"--at-step must be >= 1 (an evaluation step of every cell), got {args.at_step}")
         if args.cpus_per_task < 1 or args.hours < 1:
             raise StudyError("--cpus-per-task and --hours must be >= 1")
         study = load(args.study, args.out_dir)
@@ -682,9 +727,10 @@ def main(argv: list[str] | None = None) -> int:
             print(slurm_script(study, args.cpus_per_task, args.hours), end="")
             return 0
         if args.report:
-            return write_report(study, args.report, args.bench, args.force)
+            return write_report(study, args.report, args.bench, args.force, at_step=args.at_step,
+                                mixed_precision=args.mixed_precision)
         if args.curate:
-            return curate(study, args.curate, args.bench)
+            return curate(study, args.curate, args.bench, mixed_precision=args.mixed_precision)
         if args.cell is not None:
             cell = study.cell(args.cell)
             return run_cell(cell, log=lambda s: print(s, flush=True))

@@ -54,7 +54,6 @@ from typing import Callable
 import jax
 import jax.numpy as jnp
 import numpy as np
-import yaml
 
 from swim_jax.agents.loop import CHECKED, ChunkMetrics
 from swim_jax import config as cfgmod
@@ -133,9 +132,10 @@ def run(cfg: Config, run_dir: str, resume: bool = False, log: Callable[[str], No
         jax.config.update("jax_enable_x64", previous_x64)
 
 
-def products_dtype(prog) -> str:
-    """The dtype the program's Dense products run in ("bfloat16", or the run's precision): what
-    ``matmul_dtype`` resolved to here; recorded in timing.json and each stretch's provenance entry."""
+def resolved_matmul_dtype(prog) -> str:
+    """The dtype the program's Dense products run in ("bfloat16", or the run's precision): the
+    config's ``matmul_dtype`` as a dtype name; recorded in timing.json and each stretch's
+    provenance entry (``swim_jax.io.provenance.recorded_matmul_dtypes``)."""
     return jnp.dtype(prog.agent.matmul_dtype or prog.agent.dtype).name
 
 
@@ -158,6 +158,11 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
     folder = outputs.RunFolder(cfg, run_dir, lanes.layout, writes=distributed.is_writer())
     layout = lanes.layout
     folder.create(fresh=not resume)
+    if resume:
+        grown_from = folder.grow_budget()  # a larger total_steps than the folder's: config.yaml says so now
+        if grown_from is not None:
+            log(f"budget grown: total_steps {grown_from} -> {cfg.total_steps} (config.yaml rewritten; "
+                "the run continues as one started with the larger budget)")
     ckpt = Checkpointer(os.path.join(run_dir, "checkpoints"), keep=cfg.keep_checkpoints)
     store = ReplayStore(os.path.join(run_dir, "checkpoints", REPLAY_DIR), cfg.replay_size)
     evals = _Evaluations(cfg, prog, lanes)
@@ -167,11 +172,11 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
         log(f"resumed {run_dir} at step {restored}")
     folder.start_logs(restored, closing)  # cut after that checkpoint, or (none) started afresh
     if folder.writes:
-        products = products_dtype(prog)
-        before = [e["matmul_dtype"] for e in provenance.read(run_dir) if "matmul_dtype" in e]
-        if before and before[-1] != products:
+        products = resolved_matmul_dtype(prog)
+        before = provenance.recorded_matmul_dtypes(run_dir)
+        if before and before[-1] != products:  # (not since matmul_dtype=auto went: resume_config reads it)
             log(f"warning: this stretch multiplies in {products}, the run's last one in {before[-1]} "
-                f"(matmul_dtype={cfg.matmul_dtype} resolves per CPU; provenance.json records each stretch)")
+                "(provenance.json records each stretch)")
         provenance.record(run_dir, restored or 0, facts={"matmul_dtype": products})  # code, packages, CPU, command
     if restored is None:
         states = _initial_states(cfg, prog, lanes, folder, evals, say)
@@ -240,14 +245,20 @@ def _restore(ckpt: Checkpointer, store: ReplayStore, step: int, prog: Programs, 
     replay buffer comes from the replay store, or, for a checkpoint written before it existed
     (the whole buffer inside), from the checkpoint itself."""
     full = jax.eval_shape(prog.init_fn, *lanes.init_args)
-    whole = ckpt.stored_keys(step) == Checkpointer.keys_of((full, evals.saved()))
-    template = ((full if whole else _without_replay(full)), evals.saved())
+    # the evaluations as saved: a run whose budget grew since has fewer rows than ``evals`` now
+    saved_shape = ckpt.stored_shape(step, f"{len(jax.tree.leaves((full, evals.saved()))) - 1:05d}")
+    saved_evals = np.zeros(saved_shape, evals.saved().dtype)
+    if saved_shape[0] > evals.returns.shape[0] or saved_shape[1:] != evals.returns.shape[1:]:
+        raise ConfigError(f"checkpoint {step} holds evaluations {saved_shape}, this run's budget "
+                          f"{evals.returns.shape}: a budget can only grow")
+    whole = ckpt.stored_keys(step) == Checkpointer.keys_of((full, saved_evals))
+    template = ((full if whole else _without_replay(full)), saved_evals)
     shardings = None
     if lanes.sharding is not None:  # the lanes straight onto their devices; the evaluations whole on each
         everywhere = jax.sharding.NamedSharding(lanes.sharding.mesh, jax.sharding.PartitionSpec())
         shardings = (jax.tree.map(lambda _: lanes.sharding, template[0]), everywhere)
     states, saved_evals = ckpt.restore(step, template, shardings)
-    evals.returns[:] = to_host(saved_evals)
+    evals.returns[: saved_shape[0]] = to_host(saved_evals)
     if not whole:
         like = {k: (a.shape, a.dtype) for k, a in full.buffer.data._asdict().items()}
         host = store.rebuild(step, like)
@@ -387,7 +398,7 @@ def _timing(cfg: Config, prog: Programs, lanes: Lanes, evals: _Evaluations, cloc
         "devices": stepper.devices,
         "lane_groups": stepper.lane_groups,
         "processes": jax.process_count(),
-        "matmul_dtype": products_dtype(prog),
+        "matmul_dtype": resolved_matmul_dtype(prog),
         "native_call": prog.env.native_physics.call if prog.env.native_physics is not None else None,
     }
 
@@ -508,17 +519,34 @@ def parse_args(argv: list[str]) -> tuple[Config, str | None]:
         else:
             overrides.append(tok)
     if resume is not None:
-        if config_name is not None or overrides:
-            raise ConfigError("--resume takes no config= or overrides (the run's config.yaml is used)")
-        path = os.path.join(resume, "config.yaml")
-        if not os.path.isfile(path):
-            raise ConfigError(f"cannot resume: {path} not found")
-        with open(path) as f:
-            cfg = cfgmod.from_dict(Config, yaml.safe_load(f) or {})
-        return cfgmod.validate(cfg), resume
+        if config_name is not None:
+            raise ConfigError("--resume takes no config= (the run's config.yaml is used; the one override it "
+                              "takes is total_steps=N, a larger budget)")
+        return resume_config(resume, overrides), resume
     if config_name is None:
         raise ConfigError(f"missing config=<name>; valid configs: {', '.join(cfgmod.available_configs())}")
     return cfgmod.resolve(config_name, overrides), None
+
+
+def resume_config(run_dir: str, overrides: list[str] = ()) -> Config:
+    """The config a resume of ``run_dir`` trains with: its config.yaml, where an old ``matmul_dtype:
+    auto`` reads as what the run multiplied in (``provenance.config_matmul_dtype``), and
+    ``overrides``, which may only be ``total_steps=N`` with N at least the run's budget (the run
+    continues to N, as a run started with N would have: :func:`run` grows the folder's budget).
+    Anything else: :class:`ConfigError` (one line)."""
+    path = os.path.join(run_dir, "config.yaml")
+    if not os.path.isfile(path):
+        raise ConfigError(f"cannot resume: {path} not found")
+    other = [o for o in overrides if o.split("=", 1)[0] != "total_steps"]
+    if other:
+        raise ConfigError(f"--resume takes only total_steps=N (a larger budget), not {other[0]!r}: a run "
+                          f"continues with the config it started with ({path})")
+    _, recorded = cfgmod.read_run_config(run_dir)
+    _, cfg = cfgmod.read_run_config(run_dir, overrides)
+    if cfg.total_steps < recorded.total_steps:
+        raise ConfigError(f"total_steps={cfg.total_steps} is below the run's total_steps={recorded.total_steps} "
+                          f"({path}); a resume can only keep or grow the budget")
+    return cfg
 
 
 def main(argv: list[str] | None = None, require_sweep: bool = False) -> int:
