@@ -130,7 +130,7 @@ class NetworkOptions:
     matmul_dtype: Any = None
 
     @property
-    def low_precision_products(self) -> bool:
+    def casts_to_matmul_dtype(self) -> bool:
         """Whether the Dense products round to ``matmul_dtype`` (set and not ``dtype``)."""
         return self.matmul_dtype is not None and jnp.dtype(self.matmul_dtype) != jnp.dtype(self.dtype)
 
@@ -225,10 +225,10 @@ class TwinCritic(nn.Module):
             _Critic,
             variable_axes={"params": 0},
             split_rngs={"params": True},
-            in_axes=None if self.options.low_precision_products else 0,
+            in_axes=None if self.options.casts_to_matmul_dtype else 0,
             out_axes=0,
             axis_size=self.num_critics,
         )
-        if not self.options.low_precision_products:  # a broadcast copy per critic (see above)
+        if not self.options.casts_to_matmul_dtype:  # a broadcast copy per critic (see above)
             obs, action = (jnp.broadcast_to(x, (self.num_critics, *x.shape)) for x in (obs, action))
         return vmapped(self.options, name="critics")(obs, action)

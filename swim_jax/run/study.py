@@ -539,7 +539,7 @@ def study_section(study: Study, states: list[CellState], trained: Study | None =
         where = "" if trained is study else f" (their state in {trained.out_dir})"
         lines += ["", f"**Partial study**: {len(states) - len(done)} cell(s) not finished and left out{where}: "
                   + ", ".join(f"{s.cell.name} ({s.state}, step {s.step})" for s in states if s.state != "done") + "."]
-    lines += ["", "| cell | state | steps | wall time (last stretch) | CPU | matmul products | code |",
+    lines += ["", "| cell | state | steps | wall time (last stretch) | CPU | matmul_dtype | code |",
               "|---|---|---|---|---|---|---|"]
     for s in states:
         prov = provenance.read(s.cell.run_dir)
