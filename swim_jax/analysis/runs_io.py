@@ -406,15 +406,15 @@ def load_and_group(paths: list[str], allow_incomplete: bool = False, at_step: in
 
 
 def _pool(env: str, act: str, runs: list[Run], n: int, eval_freq: int) -> Curves:
-    ref = _flat(runs[0].config, POOL_IGNORED_KEYS)
+    ref = flat_config(runs[0].config, POOL_IGNORED_KEYS)
     owner = {}
     for r in runs:
-        diff = _dict_diff(ref, _flat(r.config, POOL_IGNORED_KEYS))
+        diff = _dict_diff(ref, flat_config(r.config, POOL_IGNORED_KEYS))
         if diff:
             k = diff[0]
             raise RunError(f"{env}/{act}: cannot pool {runs[0].path} and {r.path} as seeds of one "
                            f"experiment: they differ in {k} ({ref.get(k)!r} vs "
-                           f"{_flat(r.config, POOL_IGNORED_KEYS).get(k)!r})")
+                           f"{flat_config(r.config, POOL_IGNORED_KEYS).get(k)!r})")
         for sid in r.seed_ids:
             if sid in owner:
                 raise RunError(f"{env}/{act}: {owner[sid]} and {r.path} both contain seed index {sid[1]} "
@@ -449,10 +449,10 @@ def _cross_activation_differences(by_act: dict[str, list[Run]]) -> list[str]:
     if len(acts) < 2:
         return []
     ref_act = acts[0]
-    ref = _flat(by_act[ref_act][0].config, ignored)
+    ref = flat_config(by_act[ref_act][0].config, ignored)
     out = []
     for a in acts[1:]:
-        other = _flat(by_act[a][0].config, ignored)
+        other = flat_config(by_act[a][0].config, ignored)
         for k in _dict_diff(ref, other):
             out.append(f"{ref_act} and {a} runs differ in {k}: {ref.get(k)!r} vs {other.get(k)!r}")
     return out
@@ -470,14 +470,16 @@ def _numerics_differences(runs: list[Run]) -> str | None:
     return "runs differ in precision or matmul_dtype: " + "; ".join(f"{n}: {', '.join(ps)}" for n, ps in by.items())
 
 
-def _flat(d: dict, ignored, prefix: str = "") -> dict:
+def flat_config(d: dict, ignored, prefix: str = "") -> dict:
+    """``d`` flattened to dotted keys (``agent.activation.k``), without the keys in ``ignored``
+    (a dotted key there drops its whole sub-tree)."""
     out = {}
     for k, v in d.items():
         key = f"{prefix}{k}"
         if key in ignored:
             continue
         if isinstance(v, dict):
-            out.update(_flat(v, ignored, key + "."))
+            out.update(flat_config(v, ignored, key + "."))
         else:
             out[key] = v
     return out
