@@ -15,3 +15,15 @@ holds its code. The rooms, each importing only rooms listed before it (docs/ARCH
 - ``run``        one run of a config (program, loop, run folder), rendering, a whole study
 - ``bench``      the benchmarks
 """
+
+__all__ = ["train", "load_runs", "results", "resolve"]
+
+
+def __getattr__(name: str):
+    """The Python API (swim_jax/run/api.py: ``train``, ``load_runs``, ``results``, ``resolve``),
+    imported on first use so that ``import swim_jax`` stays light."""
+    if name in __all__:
+        from swim_jax.run import api
+
+        return getattr(api, name)
+    raise AttributeError(f"module 'swim_jax' has no attribute {name!r}")

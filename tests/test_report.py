@@ -423,7 +423,7 @@ def test_module_cli_exit_status(tmp_path, walker):
     p = subprocess.run([sys.executable, "-m", "swim_jax.report", *walker, "--out", str(out), "--n-boot", "200"],
                        cwd=ROOT, capture_output=True, text=True, timeout=120)
     assert p.returncode == 0, p.stderr
-    assert sorted(os.listdir(out)) == ["REPORT.md", "figure4.png", "figure4.svg", "results.json"]
+    assert sorted(os.listdir(out)) == ["REPORT.md", "figure4.png", "figure4.svg", "results.csv", "results.json"]
 
 
 # ------------------------------------------------------------------------------------------------
@@ -562,7 +562,7 @@ def test_force_removes_stale_sweep_figures(tmp_path, walker, capsys):
     (out / "keep.txt").write_text("mine")
     rc, _, err = run_report(walker + ["--out", out, "--force", "--n-boot", "200"], capsys)
     assert rc == 0, err
-    assert sorted(os.listdir(out)) == ["REPORT.md", "figure4.png", "figure4.svg", "keep.txt", "results.json"]
+    assert sorted(os.listdir(out)) == ["REPORT.md", "figure4.png", "figure4.svg", "keep.txt", "results.csv", "results.json"]
     assert "sweep.png" not in (out / "REPORT.md").read_text()
 
 
@@ -680,7 +680,7 @@ def test_learning_metrics_figure_and_numbers_by_hand(tmp_path, capsys):
     rc, stdout, err = run_report(paths + ["--out", out, "--n-boot", "200"], capsys)
     assert rc == 0, err
     assert sorted(os.listdir(out)) == ["REPORT.md", "figure4.png", "figure4.svg", "learning.png", "learning.svg",
-                                       "results.json"]
+                                       "results.csv", "results.json"]
     assert "learning.png" in stdout and (out / "learning.png").read_bytes().startswith(b"\x89PNG")
     lm = json.loads((out / "results.json").read_text())["envs"]["Walker2d-v5"]["learning_metrics"]
     assert list(lm) == ["swim", "swish"]  # relu has no metrics.csv
@@ -711,7 +711,7 @@ def test_runs_without_metrics_csv_report_as_before(tmp_path, capsys):
     for p in paths[:3]:
         os.remove(os.path.join(p, "metrics.csv"))
     assert run_report(paths + ["--out", without, "--n-boot", "200"], capsys)[0] == 0
-    assert sorted(os.listdir(without)) == ["REPORT.md", "figure4.png", "figure4.svg", "results.json"]
+    assert sorted(os.listdir(without)) == ["REPORT.md", "figure4.png", "figure4.svg", "results.csv", "results.json"]
     for name in ("figure4.png", "figure4.svg"):
         assert (with_m / name).read_bytes() == (without / name).read_bytes()
     res_with, res_without = (json.loads((d / "results.json").read_text()) for d in (with_m, without))
@@ -722,7 +722,7 @@ def test_runs_without_metrics_csv_report_as_before(tmp_path, capsys):
     assert md_with[:start] + md_with[end:] == (without / "REPORT.md").read_text().replace(str(without), "OUT")
     rc, _, err = run_report(paths + ["--out", with_m, "--force", "--n-boot", "200"], capsys)
     assert rc == 0, err
-    assert sorted(os.listdir(with_m)) == ["REPORT.md", "figure4.png", "figure4.svg", "results.json"]
+    assert sorted(os.listdir(with_m)) == ["REPORT.md", "figure4.png", "figure4.svg", "results.csv", "results.json"]
 
 
 @pytest.mark.parametrize("rows, needle", [

@@ -26,8 +26,6 @@ import os
 import sys
 from dataclasses import dataclass
 
-import numpy as np
-
 from swim_jax.analysis import stats
 from swim_jax.analysis.runs_io import POOL_IGNORED_KEYS, Run, RunError, flat_config, load_run, numerics
 from swim_jax.io import cli_parser
@@ -85,13 +83,8 @@ def pair(name: str, a_path: str, b_path: str, at_step: int | None, differ: tuple
         k = diff[0]
         raise CompareError(f"{name}: {a.path} and {b.path} differ in {k} ({fa.get(k)!r} vs {fb.get(k)!r}), "
                            f"not only in the compared keys ({', '.join(differ)})")
-    sa, sb = (stats.per_seed_scores(_steps(r), r.returns) for r in (a, b))
+    sa, sb = (stats.per_seed_scores(r.steps, r.returns) for r in (a, b))
     return Pair(name, a, b, {s: stats.compare(sa[s], sb[s], s, n_boot, seed) for s in SCORES})
-
-
-def _steps(r: Run) -> np.ndarray:
-    """The steps of the run's evaluations (evaluation i at i · eval_freq)."""
-    return np.arange(r.returns.shape[0], dtype=np.int64) * r.eval_freq
 
 
 def sentence(p: Pair, b_label: str) -> str:

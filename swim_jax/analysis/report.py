@@ -39,12 +39,12 @@ import numpy as np
 import yaml
 
 from swim_jax.io import cli_parser
-from swim_jax.analysis import paper_ref, stats
+from swim_jax.analysis import paper_ref, stats, tidy
 from swim_jax.io.bench_results import BenchError, load_bench, speedup_pct
 from swim_jax.analysis.report_figure import LEARNING_PANELS, display_name, figure4, group_colors, learning_figure, parameter_series, sweep_figure
 from swim_jax.analysis.runs_io import EnvGroup, RunError, load_and_group
 
-OUTPUT_FILES = ("REPORT.md", "results.json", "figure4.png", "figure4.svg", "learning.png", "learning.svg",
+OUTPUT_FILES = ("REPORT.md", "results.json", "results.csv", "figure4.png", "figure4.svg", "learning.png", "learning.svg",
                 "sweep.png", "sweep.svg")  # all it may write
 SCORES = ("max", "final", "auc")
 SCORE_WORDS = {
@@ -628,6 +628,9 @@ def build(args, command: str) -> dict[str, bytes | str]:
         files.update(_figure_bytes("sweep", lambda paths: sweep_figure(nums.series, paths)))
     res = results_dict(nums, args.score, args.n_boot, args.boot_seed)
     files["results.json"] = json.dumps(_json_safe(res), indent=1, allow_nan=False) + "\n"
+    if nums.groups:  # per seed and evaluation, for other tools (swim_jax/analysis/tidy.py)
+        files["results.csv"] = tidy.to_csv(tidy.tidy_rows(
+            [r for g in nums.groups.values() for c in g.curves.values() for r in c.run_objects]))
     return files
 
 

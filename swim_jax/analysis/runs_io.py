@@ -34,6 +34,7 @@ Every problem raises :class:`RunError` with a one-line message.
 from __future__ import annotations
 
 import csv
+import dataclasses
 import json
 import os
 from dataclasses import dataclass, field
@@ -87,6 +88,11 @@ class Run:
     matmul_dtype: str = ""  # the dtype its matmul products ran in (read_matmul_dtype)
 
     @property
+    def steps(self) -> np.ndarray:
+        """The env step of each evaluation (evaluation i at i · eval_freq)."""
+        return np.arange(self.returns.shape[0], dtype=np.int64) * self.eval_freq
+
+    @property
     def expected_evals(self) -> int:
         return 1 + self.total_steps // self.eval_freq
 
@@ -110,6 +116,7 @@ class Curves:
     setting: ActivationSetting | None = None
     sweep_suffix: str = ""
     matmul_dtypes: list = field(default_factory=list)  # sorted dtypes of its runs' products (read_matmul_dtype)
+    run_objects: list = field(default_factory=list, repr=False)  # the Runs pooled, cut to the curve's evaluations
 
     @property
     def n_seeds(self) -> int:
@@ -424,7 +431,8 @@ def _pool(env: str, act: str, runs: list[Run], n: int, eval_freq: int) -> Curves
     steps = np.arange(n, dtype=np.int64) * eval_freq
     return Curves(env, act, steps, returns, [r.path for r in runs], _pool_metrics(runs, n - 1, eval_freq),
                   [r.path for r in runs if r.metrics is None], runs[0].setting, runs[0].sweep_suffix,
-                  sorted({r.matmul_dtype for r in runs}))
+                  sorted({r.matmul_dtype for r in runs}),
+                  [dataclasses.replace(r, returns=r.returns[:n]) for r in runs])
 
 
 def _pool_metrics(runs: list[Run], n_chunks: int, eval_freq: int) -> LearningMetrics | None:
