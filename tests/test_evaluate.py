@@ -152,7 +152,7 @@ def unfinished(policy_runs, tmp_path_factory):
 
 BAD = [
     ("missing run", lambda r, u, t: [t / "nope"], r"nope: no such run folder"),
-    ("not a run", lambda r, u, t: [t], r": no config.yaml \(not a swim_jax.run.train run folder\)"),
+    ("not a run", lambda r, u, t: [t], r": no config.yaml \(not a run folder of python -m swim_jax.train\)"),
     ("seed out of range", lambda r, u, t: [r, "--seed", "5"], r"seed 5 is not in .*: its seeds are 0..1"),
     ("unknown step", lambda r, u, t: [r, "--step", "1234"],
      r"no policy at step 1234; valid steps: checkpoints at 1000, 2000; final_policy.npz at 2000"),

@@ -172,7 +172,7 @@ def test_policy_input_checks_and_export_round_trip(tmp_path):
     np.testing.assert_array_equal(again(obs), policy(obs))
     assert again.header() == policy.header() and again.header()["layer_params"][1]["k"] == policy.layer_params[1]["k"]
     np.save(tmp_path / "x.npy", np.zeros(3))
-    with pytest.raises(pol.PolicyError, match="not a policy file written by swim_jax.analysis.evaluate --export"):
+    with pytest.raises(pol.PolicyError, match="not a policy file written by python -m swim_jax.evaluate --export"):
         pol.load_exported(str(tmp_path / "x.npy"))
 
 
@@ -276,7 +276,7 @@ def test_load_policy_errors(policy_runs, tmp_path):
     run = policy_runs["f64"].run_dir
     for call, message in [
         (lambda: pol.load_policy(str(tmp_path / "nope")), r"nope: no such run folder"),
-        (lambda: pol.load_policy(str(tmp_path)), r"no config.yaml \(not a swim_jax.run.train run folder\)"),
+        (lambda: pol.load_policy(str(tmp_path)), r"no config.yaml \(not a run folder of python -m swim_jax.train\)"),
         (lambda: pol.load_policy(run, seed=2), r"seed 2 is not in .*: its seeds are 0..1"),
         (lambda: pol.load_policy(run, step=1500), r"no policy at step 1500; valid steps: checkpoints at 1000, 2000; "
                                                   r"final_policy.npz at 2000"),

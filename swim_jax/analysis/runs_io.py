@@ -236,7 +236,7 @@ def _run_files(path: str) -> tuple[str, str]:
             inner = sorted(e for e in os.listdir(path)
                            if os.path.isfile(os.path.join(path, e, "config.yaml")))
             hint = (f"; it contains {len(inner)} run folder(s) such as {os.path.join(path, inner[0])}: "
-                    f"pass those instead" if inner else " (not a swim_jax.run.train run folder?)")
+                    f"pass those instead" if inner else " (not a run folder of python -m swim_jax.train?)")
             raise RunError(f"{path}: missing {os.path.basename(p)}{hint}")
     return cfg_path, ev_path
 

@@ -1,4 +1,4 @@
-"""Shared MJX locomotion base with Gymnasium MuJoCo (v4/v5) semantics.
+"""Shared locomotion base with Gymnasium MuJoCo (v4/v5) semantics, on MJX or MuJoCo C physics (``backend``).
 
 One class, :class:`LocomotionEnv`, owns everything the tasks share: loading Gymnasium's own XML
 from the installed ``gymnasium`` package, the solver caps, frame skip, reset noise, the
@@ -106,7 +106,7 @@ def float_dtype() -> jnp.dtype:
 
 
 class LocomotionEnv(brax_base.Env):
-    """Gymnasium-equivalent MuJoCo locomotion task on MJX physics (brax ``Env`` API).
+    """Gymnasium-equivalent MuJoCo locomotion task on MJX or MuJoCo C physics (brax ``Env`` API).
 
     Subclasses set the class attributes below and override :meth:`observation` and, if the task
     can fall, :meth:`is_healthy`. ``reset(rng)`` and ``step(state, action)`` are pure, jit- and

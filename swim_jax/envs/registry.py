@@ -20,7 +20,7 @@ ENV_IDS = tuple(_REGISTRY)
 
 
 def make(env_id: str, **options) -> LocomotionEnv:
-    """Build the MJX env ``env_id`` (one of ``ENV_IDS``) with Gymnasium semantics.
+    """Build the env ``env_id`` (one of ``ENV_IDS``) with Gymnasium semantics.
 
     Options (all optional): ``max_episode_steps`` (default 1000; ``None`` = never truncate),
     ``solver_iterations`` (default 8; ``None`` = the XML's 100), ``ls_iterations`` (default 16;

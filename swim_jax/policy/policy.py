@@ -201,7 +201,7 @@ def load_exported(path: str) -> Policy:
     except PolicyError as e:
         raise PolicyError(f"{path}: {e}") from None
     except (OSError, ValueError, KeyError, TypeError, EOFError) as e:
-        raise PolicyError(f"{path}: not a policy file written by swim_jax.analysis.evaluate --export "
+        raise PolicyError(f"{path}: not a policy file written by python -m swim_jax.evaluate --export "
                           f"({_one_line(e)})") from None
 
 
@@ -440,7 +440,7 @@ def _with(policy: Policy, dtype, matmul_dtype) -> Policy:
 def _read_config(run_dir: str) -> dict:
     path = os.path.join(run_dir, "config.yaml")
     if not os.path.isfile(path):
-        raise PolicyError(f"{run_dir}: no config.yaml (not a swim_jax.run.train run folder)")
+        raise PolicyError(f"{run_dir}: no config.yaml (not a run folder of python -m swim_jax.train)")
     try:
         with open(path) as f:
             cfg = yaml.safe_load(f)

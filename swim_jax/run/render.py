@@ -112,7 +112,7 @@ def load_policy(run_dir: str, seed: int):
                           f"{os.path.join(run_dir, 'points', points[0] if points else '<label>')}")
     for name in ("config.yaml", "final_policy.npz"):
         if not os.path.isfile(os.path.join(run_dir, name)):
-            raise RenderError(f"{run_dir}: missing {name} (not a finished swim_jax.run.train run folder?)")
+            raise RenderError(f"{run_dir}: missing {name} (not a finished run folder of python -m swim_jax.train?)")
     try:
         _, cfg = cfgmod.read_run_config(run_dir)
     except (yaml.YAMLError, cfgmod.ConfigError, OSError, TypeError, ValueError) as e:

@@ -1,4 +1,4 @@
-"""Hopper-v5 and Hopper-v4 (Gymnasium semantics) on MJX: only what differs from the base."""
+"""Hopper-v5 and Hopper-v4 (Gymnasium semantics) on MJX or MuJoCo C physics: only what differs from the base."""
 
 from __future__ import annotations
 

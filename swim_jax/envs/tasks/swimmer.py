@@ -1,4 +1,4 @@
-"""Swimmer-v5 (Gymnasium semantics) on MJX: only what differs from the base."""
+"""Swimmer-v5 (Gymnasium semantics) on MJX or MuJoCo C physics: only what differs from the base."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Walker2d-v5 and Walker2d-v4 (Gymnasium semantics) on MJX: only what differs from the base."""
+"""Walker2d-v5 and Walker2d-v4 (Gymnasium semantics) on MJX or MuJoCo C physics: only what differs from the base."""
 
 from __future__ import annotations
 
