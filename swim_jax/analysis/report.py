@@ -39,12 +39,14 @@ import numpy as np
 import yaml
 
 from swim_jax.io import cli_parser
-from swim_jax.analysis import paper_ref, stats, tidy
+from swim_jax.analysis import aggregate, paper_ref, stats, tidy
 from swim_jax.io.bench_results import BenchError, load_bench, speedup_pct
 from swim_jax.analysis.report_figure import LEARNING_PANELS, display_name, figure4, group_colors, learning_figure, parameter_series, sweep_figure
+from swim_jax.analysis.aggregate_figure import profile_figure
 from swim_jax.analysis.runs_io import EnvGroup, RunError, load_and_group
 
 OUTPUT_FILES = ("REPORT.md", "results.json", "results.csv", "figure4.png", "figure4.svg", "learning.png", "learning.svg",
+                "profile.png", "profile.svg",
                 "sweep.png", "sweep.svg")  # all it may write
 SCORES = ("max", "final", "auc")
 SCORE_WORDS = {
@@ -182,6 +184,7 @@ class Numbers:
     bench_meta: dict  # --bench file name -> its metadata
     learning: dict  # :func:`learning_table`
     series: dict  # swim_jax.analysis.report_figure.parameter_series: return vs activation parameter
+    agg: aggregate.Aggregates | None = None  # across envs (rliable's metrics); None with fewer than 2 envs
 
 
 def _pm(m: float, s: float, nd: int = 2) -> str:
@@ -217,6 +220,8 @@ def render_markdown(nums: Numbers, score: str, n_boot: int, boot_seed: int, comm
             L += _learning_section(nums.groups, nums.learning)
         L += _statistics_section(nums.comps, n_boot, boot_seed)
         L += _verdict_section(nums.comps, score, nums.groups)
+    if nums.agg is not None:
+        L += _aggregate_section(nums.agg, nums.groups, n_boot, boot_seed)
     if nums.t3:
         L += _table3_section(nums.t3, nums.bench_meta)
     if nums.groups:
@@ -340,6 +345,30 @@ def _learning_section(groups, learning: dict) -> list[str]:
     if missing:
         L += ["Left out (no `metrics.csv` or no row in it; run folders written before it existed have none): "
               + ", ".join(f"`{p}`" for p in missing) + ".", ""]
+    return L
+
+
+def _aggregate_section(agg: aggregate.Aggregates, groups: dict[str, EnvGroup], n_boot: int, boot_seed: int) -> list[str]:
+    """Aggregates across envs on normalized scores: IQM, mean, median, optimality gap with CIs,
+    probability of improvement between every pair of labels, the normalization and the figure."""
+    L = ["## Across envs: normalized scores (rliable's aggregates)", "",
+         f"Per-seed **{agg.score}** scores normalized per env, (score − random) / (reference − random): 0 is a "
+         "uniform random policy, 1 published TD3 at 1M steps (swim_jax/analysis/aggregate.py). 95 % CIs: "
+         f"stratified bootstrap over each env's seeds, {n_boot} resamples, numpy RandomState({boot_seed}) (the "
+         "draws rliable makes after `np.random.seed` of the same seed).", "",
+         _md_table(["env", "random policy", "reference", "reference source"],
+                   [[e, f"{aggregate.NORMALIZATION[e][0]:g}", f"{aggregate.NORMALIZATION[e][1]:g}",
+                     aggregate.NORMALIZATION[e][2]] for e in agg.envs]), ""]
+    marked = [e for e in agg.envs if groups.get(e) is not None and groups[e].mixed_precision]
+    if marked:
+        L += [f"{MIXED_MARK} Runs of different precision are compared in {', '.join(marked)}.", ""]
+    rows = [[_name(a)] + [f"{p:.3f} [{lo:.3f}, {hi:.3f}]" for p, lo, hi in (agg.metrics[a][m] for m in aggregate.METRICS)]
+            for a in agg.metrics]
+    L += [_md_table(["label", "IQM", "mean", "median", "optimality gap"], rows), ""]
+    rows = [[f"{_name(k.split('_vs_')[0])} > {_name(k.split('_vs_')[1])}", f"{p:.2f} [{lo:.2f}, {hi:.2f}]"]
+            for k, (p, lo, hi) in agg.improvement.items()]
+    L += [_md_table(["probability of improvement", "P [95 % CI]"], rows), "",
+          "![performance profiles](profile.png)", ""]
     return L
 
 
@@ -504,6 +533,8 @@ def results_dict(nums: Numbers, score: str, n_boot: int, boot_seed: int) -> dict
     }
     for env, rows in nums.learning.items():
         out["envs"][env]["learning_metrics"] = rows
+    if nums.agg is not None:  # (absent with fewer than 2 envs: older reports stay byte for byte)
+        out["aggregate"] = nums.agg.to_json()
     return out
 
 
@@ -599,10 +630,13 @@ def compute(args) -> Numbers:
     """Every number of the report from ``args`` (reads the inputs; :class:`ReportError` on bad ones)."""
     groups, bench_rows, bench_meta = load_inputs(args)
     t2 = table2(groups)
+    per_env = {env: {a: stats.per_seed_scores(c.steps, c.returns)[args.score] for a, c in g.curves.items()}
+               for env, g in groups.items()}
     return Numbers(groups=groups, configs={env: _first_config(g) for env, g in groups.items()}, t2=t2,
                    imp=improvements(t2), comps=comparisons(groups, args.n_boot, args.boot_seed),
                    t3=table3(bench_rows), bench_meta=bench_meta, learning=learning_table(groups),
-                   series=parameter_series(groups))
+                   series=parameter_series(groups),
+                   agg=aggregate.aggregate(per_env, args.score, reps=args.n_boot, seed=args.boot_seed))
 
 
 def _first_config(g: EnvGroup) -> dict:
@@ -626,6 +660,8 @@ def build(args, command: str) -> dict[str, bytes | str]:
     files["REPORT.md"] = render_markdown(nums, args.score, args.n_boot, args.boot_seed, command)
     if nums.series:
         files.update(_figure_bytes("sweep", lambda paths: sweep_figure(nums.series, paths)))
+    if nums.agg is not None:
+        files.update(_figure_bytes("profile", lambda paths: profile_figure(nums.agg, paths)))
     res = results_dict(nums, args.score, args.n_boot, args.boot_seed)
     files["results.json"] = json.dumps(_json_safe(res), indent=1, allow_nan=False) + "\n"
     if nums.groups:  # per seed and evaluation, for other tools (swim_jax/analysis/tidy.py)
