@@ -166,7 +166,8 @@ def test_pooling_more_seeds_and_grouping_by_env(tmp_path, capsys):
     assert w["table2"]["swim"]["max_mean"] == pytest.approx(170 / 3)
     assert w["table2"]["swim"]["max_std"] == pytest.approx(np.std([60.0, 40.0, 70.0]))
     np.testing.assert_allclose(w["curves"]["swim"]["mean"], pooled.mean(axis=1))
-    assert set(w["comparisons"]) == {"swim_vs_swish", "swim_vs_relu", "swish_vs_relu"}
+    assert set(w["comparisons"]) == {"swim_vs_swish", "swim_vs_relu", "swish_vs_relu", "swim_vs_swim(k=0.75)",
+                                     "swim(k=0.75)_vs_swish", "swim(k=0.75)_vs_relu"}  # every pair of labels
     h = res["envs"]["Hopper-v5"]
     assert h["steps"] == [0, 1000, 2000, 3000, 4000] and h["table2"]["swim"]["max_mean"] == 9.5
     assert h["verdict"] is None
@@ -785,3 +786,25 @@ def test_elu_labels_old_and_new_run_folders_and_alpha_series(tmp_path, capsys):
     md = (out / "REPORT.md").read_text()
     assert "| ELU(alpha=0.5) |" in md and "| ELU+learnable |" in md and "| Walker2d-v5 | ELU | 0.5 |" in md
     assert (out / "sweep.svg").is_file()
+
+
+def test_every_pair_of_labels_is_compared_or_each_against_a_baseline(tmp_path, capsys):
+    """Any activation gets comparisons: every pair of the labels present (Swim, Swish, ReLU first), or
+    with --baseline LABEL every other label against it; the paper's Swim vs Swish verdict stays."""
+    mish = SWISH + 5.0
+    paths = [write_run(tmp_path, "a", act="swim"), write_run(tmp_path, "b", act="swish", returns=SWISH),
+             write_run(tmp_path, "c", act="relu", returns=SWISH - 3.0), write_run(tmp_path, "d", act="mish", returns=mish)]
+    assert run_report(paths + ["--out", tmp_path / "all", "--n-boot", "200"], capsys)[0] == 0
+    res = json.loads((tmp_path / "all" / "results.json").read_text())["envs"]["Walker2d-v5"]
+    assert list(res["comparisons"]) == ["swim_vs_swish", "swim_vs_relu", "swim_vs_mish", "swish_vs_relu",
+                                        "swish_vs_mish", "relu_vs_mish"]
+    c = res["comparisons"]["relu_vs_mish"]["final"]
+    assert c["diff"] == pytest.approx((SWISH[-1] - 3.0).mean() - mish[-1].mean())
+    assert res["verdict"] is not None and "with 3 scores × 6 pairs per env" in (tmp_path / "all" / "REPORT.md").read_text()
+    assert run_report(paths + ["--out", tmp_path / "base", "--n-boot", "200", "--baseline", "relu"], capsys)[0] == 0
+    res = json.loads((tmp_path / "base" / "results.json").read_text())["envs"]["Walker2d-v5"]
+    assert list(res["comparisons"]) == ["swim_vs_relu", "swish_vs_relu", "mish_vs_relu", "swim_vs_swish"]
+    assert res["verdict"] is not None
+    rc, _, err = run_report(paths + ["--out", tmp_path / "bad", "--baseline", "gelu"], capsys)
+    assert rc == 2 and "--baseline 'gelu' is not a label of these runs; valid: mish, relu, swim, swish" in err
+    assert not (tmp_path / "bad").exists()

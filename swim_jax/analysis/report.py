@@ -27,6 +27,7 @@ arguments, unusable --out, non-empty --out without --force): one line on stderr,
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import math
 import os
@@ -54,7 +55,6 @@ SCORE_WORDS = {
     "final": "the seed's return at the last evaluation",
     "auc": "the seed's time-averaged return (trapezoid AUC / step span)",
 }
-PAIRS = (("swim", "swish"), ("swim", "relu"), ("swish", "relu"))
 
 
 class ReportError(ValueError):
@@ -101,17 +101,24 @@ def improvements(t2: dict) -> dict:
     return out
 
 
-def comparisons(groups: dict[str, EnvGroup], n_boot: int, seed: int) -> dict:
-    """``{env: {"swim_vs_swish": {score: Comparison}, ...}}`` for each pair of PAIRS present."""
+def label_pairs(labels: list[str], baseline: str | None = None) -> list[tuple[str, str]]:
+    """The (X, Y) pairs compared among ``labels`` (in the report's label order): every pair, X before
+    Y (Swim vs Swish, Swim vs ReLU, Swish vs ReLU, then the others), or with ``baseline`` every other
+    label against it, and Swim vs Swish (the paper's verdict) whenever both are there."""
+    if baseline is None:
+        return list(itertools.combinations(labels, 2))
+    pairs = [(a, baseline) for a in labels if a != baseline] if baseline in labels else []
+    paper = ("swim", "swish")
+    return pairs + ([paper] if set(paper) <= set(labels) and paper not in pairs and paper[::-1] not in pairs else [])
+
+
+def comparisons(groups: dict[str, EnvGroup], n_boot: int, seed: int, baseline: str | None = None) -> dict:
+    """``{env: {"swim_vs_swish": {score: Comparison}, ...}}`` for every pair of :func:`label_pairs`."""
     out = {}
     for env, g in groups.items():
         scores = {a: stats.per_seed_scores(c.steps, c.returns) for a, c in g.curves.items()}
-        per_env = {}
-        for x, y in PAIRS:
-            if x in scores and y in scores:
-                per_env[f"{x}_vs_{y}"] = {s: stats.compare(scores[x][s], scores[y][s], s, n_boot, seed)
-                                          for s in SCORES}
-        out[env] = per_env
+        out[env] = {f"{x}_vs_{y}": {s: stats.compare(scores[x][s], scores[y][s], s, n_boot, seed) for s in SCORES}
+                    for x, y in label_pairs(list(g.curves), baseline)}
     return out
 
 
@@ -383,7 +390,8 @@ def _statistics_section(comps: dict, n_boot: int, boot_seed: int) -> list[str]:
          "P(X > Y): over all seed pairs, ties count ½. Welch: unequal-variance t-test, "
          "Welch–Satterthwaite df, two-sided p. The per-seed *max* is biased upwards by evaluation noise "
          "(a max over noisy evaluations); *auc* is the least noisy score. These rows are exploratory: "
-         "with 3 scores × 3 pairs per env some small p-values are expected by chance (no multiple-"
+         f"with 3 scores × {max((len(per) for per in comps.values()), default=0) or 3} pairs per env some "
+         "small p-values are expected by chance (no multiple-"
          "comparison correction); the verdict below uses one score fixed in advance (`--score`).", ""]
     rows = [[env, f"{_name(x)} vs {_name(y)}", s] + _comparison_cells(c)
             for env, per in comps.items() for pair, by_score in per.items()
@@ -584,6 +592,9 @@ def parse_args(argv):
     p.add_argument("--boot-seed", type=int, default=0, help="bootstrap RNG seed (default 0)")
     p.add_argument("--allow-incomplete", action="store_true",
                    help="truncate every run of an env to the evaluations all of them have")
+    p.add_argument("--baseline", metavar="LABEL", default=None,
+                   help="compare every other label against LABEL (e.g. relu, swim(k=0.75)); default: every pair "
+                        "of labels. The Swim vs Swish verdict is the paper's either way")
     p.add_argument("--at-step", type=int, default=None, metavar="N",
                    help="report every run at the budget of N steps (its evaluations up to step N; each run "
                         "must have reached it), e.g. Table II at 300000 from 1M runs")
@@ -629,11 +640,14 @@ def load_inputs(args) -> tuple[dict[str, EnvGroup], list, dict]:
 def compute(args) -> Numbers:
     """Every number of the report from ``args`` (reads the inputs; :class:`ReportError` on bad ones)."""
     groups, bench_rows, bench_meta = load_inputs(args)
+    labels = sorted({a for g in groups.values() for a in g.curves})
+    if args.baseline is not None and args.baseline not in labels:
+        raise ReportError(f"--baseline {args.baseline!r} is not a label of these runs; valid: {', '.join(labels)}")
     t2 = table2(groups)
     per_env = {env: {a: stats.per_seed_scores(c.steps, c.returns)[args.score] for a, c in g.curves.items()}
                for env, g in groups.items()}
     return Numbers(groups=groups, configs={env: _first_config(g) for env, g in groups.items()}, t2=t2,
-                   imp=improvements(t2), comps=comparisons(groups, args.n_boot, args.boot_seed),
+                   imp=improvements(t2), comps=comparisons(groups, args.n_boot, args.boot_seed, args.baseline),
                    t3=table3(bench_rows), bench_meta=bench_meta, learning=learning_table(groups),
                    series=parameter_series(groups),
                    agg=aggregate.aggregate(per_env, args.score, reps=args.n_boot, seed=args.boot_seed))
