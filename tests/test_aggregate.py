@@ -79,3 +79,31 @@ def test_the_report_writes_the_aggregates_and_their_figure(tmp_path):
     assert (out / "profile.png").read_bytes().startswith(b"\x89PNG")
     assert report.main([CELLS[3], CELLS[4], "--out", str(tmp_path / "one"), "--n-boot", "200"]) == 0
     assert not (tmp_path / "one" / "profile.png").exists()  # one env: nothing to aggregate
+
+
+def test_envs_of_different_numerics_are_aggregated_only_on_request(tmp_path):
+    """Hopper's curated cells multiplied in bfloat16; copies of HalfCheetah's that say float32 make the
+    aggregate across envs a mixed one: not computed (the per-env tables stay), unless --mixed-precision."""
+    import shutil
+
+    hopper = CELLS[3:6]
+    cheetah = []
+    for src in CELLS[6:9]:
+        dst = tmp_path / "f32" / os.path.basename(src)
+        shutil.copytree(src, dst)
+        for name in ("provenance.json", "timing.json"):
+            path = dst / name
+            path.write_text(path.read_text().replace('"bfloat16"', '"float32"'))
+        cheetah.append(str(dst))
+    out = tmp_path / "refused"
+    assert report.main([*hopper, *cheetah, "--out", str(out), "--n-boot", "200"]) == 0
+    md = (out / "REPORT.md").read_text()
+    assert "Not computed: envs differ in precision or matmul_dtype (float32: HalfCheetah-v5; float32, bfloat16 " \
+           "products: Hopper-v5); --mixed-precision aggregates them, marked." in md
+    assert "aggregate" not in json.loads((out / "results.json").read_text()) and not (out / "profile.png").exists()
+    out = tmp_path / "asked"
+    assert report.main([*hopper, *cheetah, "--out", str(out), "--n-boot", "200", "--mixed-precision"]) == 0
+    md = (out / "REPORT.md").read_text()
+    assert "‡ Runs of different precision or matmul products are aggregated here" in md and (out / "profile.png").exists()
+    assert report.main([*hopper, *CELLS[6:9], "--out", str(tmp_path / "same"), "--n-boot", "200"]) == 0
+    assert "‡" not in (tmp_path / "same" / "REPORT.md").read_text()

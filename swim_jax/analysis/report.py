@@ -44,7 +44,7 @@ from swim_jax.analysis import aggregate, paper_ref, stats, tidy
 from swim_jax.io.bench_results import BenchError, load_bench, speedup_pct
 from swim_jax.analysis.report_figure import LEARNING_PANELS, display_name, figure4, group_colors, learning_figure, parameter_series, sweep_figure
 from swim_jax.analysis.aggregate_figure import profile_figure
-from swim_jax.analysis.runs_io import EnvGroup, RunError, load_and_group
+from swim_jax.analysis.runs_io import EnvGroup, RunError, load_and_group, numerics
 
 OUTPUT_FILES = ("REPORT.md", "results.json", "results.csv", "figure4.png", "figure4.svg", "learning.png", "learning.svg",
                 "profile.png", "profile.svg",
@@ -192,6 +192,7 @@ class Numbers:
     learning: dict  # :func:`learning_table`
     series: dict  # swim_jax.analysis.report_figure.parameter_series: return vs activation parameter
     agg: aggregate.Aggregates | None = None  # across envs (rliable's metrics); None with fewer than 2 envs
+    agg_refused: str | None = None  # why the envs were not aggregated (their runs' numerics differ)
 
 
 def _pm(m: float, s: float, nd: int = 2) -> str:
@@ -228,7 +229,9 @@ def render_markdown(nums: Numbers, score: str, n_boot: int, boot_seed: int, comm
         L += _statistics_section(nums.comps, n_boot, boot_seed)
         L += _verdict_section(nums.comps, score, nums.groups)
     if nums.agg is not None:
-        L += _aggregate_section(nums.agg, nums.groups, n_boot, boot_seed)
+        L += _aggregate_section(nums.agg, nums.groups, n_boot, boot_seed, len(by_numerics_of(nums.groups)) > 1)
+    elif nums.agg_refused:
+        L += ["## Across envs: normalized scores (rliable's aggregates)", "", f"Not computed: {nums.agg_refused}.", ""]
     if nums.t3:
         L += _table3_section(nums.t3, nums.bench_meta)
     if nums.groups:
@@ -355,7 +358,17 @@ def _learning_section(groups, learning: dict) -> list[str]:
     return L
 
 
-def _aggregate_section(agg: aggregate.Aggregates, groups: dict[str, EnvGroup], n_boot: int, boot_seed: int) -> list[str]:
+def by_numerics_of(groups: dict[str, EnvGroup]) -> dict[str, list[str]]:
+    """``{numerics: [envs]}`` of the runs of ``groups`` (``runs_io.numerics``: precision and products)."""
+    out: dict[str, list[str]] = {}
+    for env, g in groups.items():
+        for n in sorted({numerics(r) for c in g.curves.values() for r in c.run_objects}):
+            out.setdefault(n, []).append(env)
+    return out
+
+
+def _aggregate_section(agg: aggregate.Aggregates, groups: dict[str, EnvGroup], n_boot: int, boot_seed: int,
+                       mixed: bool = False) -> list[str]:
     """Aggregates across envs on normalized scores: IQM, mean, median, optimality gap with CIs,
     probability of improvement between every pair of labels, the normalization and the figure."""
     L = ["## Across envs: normalized scores (rliable's aggregates)", "",
@@ -366,9 +379,9 @@ def _aggregate_section(agg: aggregate.Aggregates, groups: dict[str, EnvGroup], n
          _md_table(["env", "random policy", "reference", "reference source"],
                    [[e, f"{aggregate.NORMALIZATION[e][0]:g}", f"{aggregate.NORMALIZATION[e][1]:g}",
                      aggregate.NORMALIZATION[e][2]] for e in agg.envs]), ""]
-    marked = [e for e in agg.envs if groups.get(e) is not None and groups[e].mixed_precision]
-    if marked:
-        L += [f"{MIXED_MARK} Runs of different precision are compared in {', '.join(marked)}.", ""]
+    if mixed:
+        L += [f"{MIXED_MARK} Runs of different precision or matmul products are aggregated here (--mixed-precision): "
+              + "; ".join(f"{n}: {', '.join(envs)}" for n, envs in by_numerics_of(groups).items()) + ".", ""]
     rows = [[_name(a)] + [f"{p:.3f} [{lo:.3f}, {hi:.3f}]" for p, lo, hi in (agg.metrics[a][m] for m in aggregate.METRICS)]
             for a in agg.metrics]
     L += [_md_table(["label", "IQM", "mean", "median", "optimality gap"], rows), ""]
@@ -646,11 +659,18 @@ def compute(args) -> Numbers:
     t2 = table2(groups)
     per_env = {env: {a: stats.per_seed_scores(c.steps, c.returns)[args.score] for a, c in g.curves.items()}
                for env, g in groups.items()}
+    by_numerics = by_numerics_of(groups)
+    agg_refused = None
+    if len(by_numerics) > 1 and not args.mixed_precision:  # an aggregate across envs is one comparison too
+        agg_refused = ("envs differ in precision or matmul_dtype (" + "; ".join(
+            f"{n}: {', '.join(envs)}" for n, envs in by_numerics.items()) + "); --mixed-precision aggregates them, marked")
     return Numbers(groups=groups, configs={env: _first_config(g) for env, g in groups.items()}, t2=t2,
                    imp=improvements(t2), comps=comparisons(groups, args.n_boot, args.boot_seed, args.baseline),
                    t3=table3(bench_rows), bench_meta=bench_meta, learning=learning_table(groups),
                    series=parameter_series(groups),
-                   agg=aggregate.aggregate(per_env, args.score, reps=args.n_boot, seed=args.boot_seed))
+                   agg=None if agg_refused else aggregate.aggregate(per_env, args.score, reps=args.n_boot,
+                                                                    seed=args.boot_seed),
+                   agg_refused=agg_refused if len(groups) > 1 else None)
 
 
 def _first_config(g: EnvGroup) -> dict:
