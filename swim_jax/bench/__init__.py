@@ -18,6 +18,7 @@ COMMANDS = {
     "envs": ("envs", "main", "MJX env steps/s vs native MuJoCo"),
     "train": ("train", "main", "whole training program (env step + update) throughput vs number of lanes/seeds"),
     "roofline": ("roofline", "main", "the matmul roofline of one TD3 update on this CPU"),
+    "sgemm": ("sgemm", "main", "the update's products on one core: XLA's kernels vs OpenBLAS (NumPy), shape by shape"),
     "processes": ("processes", "main", "the same lanes as 1 process, 1 process × N host devices, N processes × 1 core"),
     "study": ("study", "main", "study cells one at a time on all cores vs N at once, each on its own cores"),
     "profile": ("profile", "main", "where a training step's time goes: XLA operations by kind, matrix products' rates"),
