@@ -22,7 +22,9 @@ from typing import Any, Mapping
 import yaml
 
 from swim_jax import envs
-from swim_jax.agents.td3 import TD3Config, replace_fields, sweepable_fields
+from swim_jax.agents import registry
+from swim_jax.agents.base import replace_fields
+from swim_jax.agents.td3 import TD3Config
 from swim_jax.activations import ACTIVATIONS, learnable_activations, validate_params
 from swim_jax.io import provenance, tensorboard_log
 
@@ -73,7 +75,9 @@ class Config:
     """One training run (all seeds). Defaults = the paper's protocol with the TD3 reference."""
 
     env: EnvConfig = field(default_factory=EnvConfig)
-    agent: TD3Config = field(default_factory=TD3Config)
+    # the algorithm: agent.kind (td3, the default, or sac: swim_jax/agents/registry.py) picks the
+    # dataclass the rest of agent: is read into (TD3Config, SACConfig: their fields are its keys)
+    agent: TD3Config = field(default_factory=TD3Config, metadata={"by_kind": registry.config_class})
     seeds: int = 5  # number of seeds, a vmapped axis
     first_seed: int = 0  # seed indices are first_seed .. first_seed + seeds - 1
     seed: int = 0  # base seed; seed i's keys are fold_in(PRNGKey(seed), i)
@@ -136,10 +140,14 @@ class Config:
 # ------------------------------------------------------------------------------------------------
 
 def to_dict(cfg) -> dict:
-    """Plain nested dict (tuples become lists) for YAML."""
+    """Plain nested dict (tuples become lists) for YAML; a field whose metadata names an ``omit_if``
+    value is left out when it has that value (``agent.kind`` of TD3, the default: TD3 run folders
+    read as before)."""
     out = {}
     for f in dataclasses.fields(cfg):
         v = getattr(cfg, f.name)
+        if "omit_if" in f.metadata and v == f.metadata["omit_if"]:
+            continue
         if dataclasses.is_dataclass(v):
             v = to_dict(v)
         elif isinstance(v, Mapping):
@@ -217,24 +225,56 @@ def _coerce_sweep(value, path: str) -> dict[str, tuple[float, ...]]:
     return out
 
 
+def _by_kind(pick, data, path: str) -> type:
+    """The dataclass ``pick(kind)`` names for the mapping ``data`` at ``path`` by its ``kind`` key
+    (the default kind when it has none); ConfigError naming the valid kinds."""
+    kind = data.get("kind", registry.DEFAULT_KIND) if isinstance(data, Mapping) else registry.DEFAULT_KIND
+    try:
+        return pick(kind if isinstance(kind, str) else repr(kind))
+    except ValueError as e:
+        raise ConfigError(str(e).replace("agent.kind", f"{path}.kind")) from None
+
+
+def _other_kinds_key(path: str, key: str, kind: str) -> str:
+    """`` (a key of agent.kind=sac, not of agent.kind=td3)`` when ``key`` belongs to another
+    registered agent's config than ``kind``'s; "" otherwise."""
+    owners = [k for k in registry.kinds() if k != kind
+              and key in {f.name for f in dataclasses.fields(registry.config_class(k))}]
+    return f" (a key of {path}.kind={owners[0]}, not of {path}.kind={kind})" if owners else ""
+
+
 def from_dict(cls, data: Mapping[str, Any], prefix: str = ""):
-    """Build dataclass ``cls`` from a nested dict; unknown keys and wrong types raise ConfigError."""
+    """Build dataclass ``cls`` from a nested dict; unknown keys and wrong types raise ConfigError.
+    A field whose metadata has ``by_kind`` is built into the dataclass its ``kind`` key names (the
+    agent: ``agent.kind``); a field the class fixes (``init=False``, such as ``kind``) may be given
+    only with its value."""
     hints = typing.get_type_hints(cls)
-    names = [f.name for f in dataclasses.fields(cls)]
+    fields = dataclasses.fields(cls)
+    names = [f.name for f in fields]
     if not isinstance(data, Mapping):
         raise ConfigError(f"{prefix.rstrip('.') or 'config'}: expected a mapping, got {data!r}")
     unknown = [k for k in data if k not in names]
     if unknown:
+        kind = getattr(cls, "kind", None) if "kind" in names else None
+        other = _other_kinds_key(prefix.rstrip("."), str(unknown[0]), kind) if isinstance(kind, str) else ""
         raise ConfigError(
-            f"unknown key {prefix + str(unknown[0])!r}; valid keys{' under ' + prefix.rstrip('.') if prefix else ''}: "
+            f"unknown key {prefix + str(unknown[0])!r}{other}; valid keys{' under ' + prefix.rstrip('.') if prefix else ''}: "
             f"{', '.join(names)}"
         )
     kwargs = {}
-    for name in names:
+    for f in fields:
+        name = f.name
         if name not in data:
             continue
+        if not f.init:
+            if data[name] != f.default:
+                raise ConfigError(f"{prefix}{name}: expected {f.default!r}, got {data[name]!r}")
+            continue
         tp = hints[name]
-        if dataclasses.is_dataclass(tp):
+        if "by_kind" in f.metadata:
+            sub = data[name] if data[name] is not None else {}
+            kwargs[name] = from_dict(_by_kind(f.metadata["by_kind"], sub, prefix + name), sub, f"{prefix}{name}.")
+        elif dataclasses.is_dataclass(tp):
             kwargs[name] = from_dict(tp, data[name] if data[name] is not None else {}, f"{prefix}{name}.")
         elif typing.get_origin(tp) in (collections.abc.Mapping, dict):
             kwargs[name] = _coerce_sweep(data[name], prefix + name)
@@ -380,7 +420,9 @@ def validate(cfg: Config) -> Config:
         "seeds": cfg.seeds, "total_steps": cfg.total_steps, "eval_freq": cfg.eval_freq,
         "eval_episodes": cfg.eval_episodes, "replay_size": cfg.replay_size,
         "keep_checkpoints": cfg.keep_checkpoints, "env.max_episode_steps": cfg.env.max_episode_steps,
-        "agent.batch_size": cfg.agent.batch_size, "agent.policy_freq": cfg.agent.policy_freq,
+        # every integer of the agent's config (batch size, delays) counts something
+        **{f"agent.{f.name}": getattr(cfg.agent, f.name) for f in dataclasses.fields(cfg.agent)
+           if isinstance(getattr(cfg.agent, f.name), int) and not isinstance(getattr(cfg.agent, f.name), bool)},
         "progress_steps": cfg.progress_steps,
     }
     for k, v in positive.items():
@@ -395,6 +437,11 @@ def validate(cfg: Config) -> Config:
         raise ConfigError(f"total_steps ({cfg.total_steps}) must be a multiple of eval_freq ({cfg.eval_freq})")
     if not cfg.agent.hidden or any(h < 1 for h in cfg.agent.hidden):
         raise ConfigError(f"agent.hidden must be a non-empty list of positive widths, got {list(cfg.agent.hidden)}")
+    if hasattr(cfg.agent, "check"):  # the agent's own rules (SAC: log_std_min < log_std_max)
+        try:
+            cfg.agent.check()
+        except ValueError as e:
+            raise ConfigError(str(e)) from None
     _validate_sweep(cfg)
     if cfg.tensorboard:
         problem = tensorboard_log.missing_package()
@@ -404,8 +451,8 @@ def validate(cfg: Config) -> Config:
 
 
 def sweepable_keys(cfg: Config) -> tuple[str, ...]:
-    """Config keys that can be sweep axes for this config (``agent.`` + ``sweepable_fields``)."""
-    return tuple(f"agent.{f}" for f in sweepable_fields(cfg.agent.activation.name))
+    """Config keys that can be sweep axes for this config (``agent.`` + its agent's ``sweepable_fields``)."""
+    return tuple(f"agent.{f}" for f in registry.of_config(cfg.agent).sweepable_fields(cfg.agent.activation.name))
 
 
 def _validate_sweep(cfg: Config) -> None:

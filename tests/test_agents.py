@@ -90,7 +90,7 @@ def test_td3_two_updates_match_float64_reference(act_name):
             terminated=jnp.asarray((rng.uniform(size=B) < 0.3).astype(np.float64)),
         )
         keys = [jax.random.PRNGKey(100), jax.random.PRNGKey(101)]
-        update = jax.jit(agent.update)  # one program for both updates (the flag is traced)
+        update = jax.jit(agent.update_delayed)  # one program for both updates (the flag is traced)
         s1, m1 = update(state, batch, keys[0], jnp.asarray(False))
         s2, m2 = update(s1, batch, keys[1], jnp.asarray(True))
 
@@ -208,7 +208,7 @@ def test_learnable_activation_is_a_per_layer_param_that_trains():
     rng = np.random.default_rng(0)
     batch = replay.Transition(*(jnp.asarray(rng.normal(size=sh), jnp.float32) for sh in
                                 [(4, OBS), (4, ACT), (4,), (4, OBS), (4,)]))
-    st2, _ = agent.update(st, batch, jax.random.PRNGKey(1), jnp.asarray(True))
+    st2, _ = agent.update_delayed(st, batch, jax.random.PRNGKey(1), jnp.asarray(True))
     assert float(st2.actor["params"]["body"]["act_0"]["k"]) != 0.5
     assert np.all(np.asarray(st2.critic["params"]["critics"]["body"]["act_1"]["k"]) != 0.5)
 
@@ -326,7 +326,7 @@ def test_bfloat16_matmuls_round_inputs_and_weights_and_accumulate_in_float32():
     rng = np.random.default_rng(0)
     batch = replay.Transition(*(jnp.asarray(rng.normal(size=sh), jnp.float32) for sh in
                                 [(4, OBS), (4, ACT), (4,), (4, OBS), (4,)]))
-    st2, m = agent.update(st, batch, jax.random.PRNGKey(1), jnp.asarray(True))
+    st2, m = agent.update_delayed(st, batch, jax.random.PRNGKey(1), jnp.asarray(True))
     assert np.isfinite(float(m.critic_loss)) and np.isfinite(float(m.actor_loss))
     for before, after in ((st.actor, st2.actor), (st.critic, st2.critic)):
         leaves = jax.tree.leaves(after)

@@ -142,8 +142,8 @@ def _check_with_hparams(learnable):
         def one(h):
             a = agent.with_hparams(h)
             s = a.init(jax.random.PRNGKey(0))
-            s, _ = a.update(s, batch, jax.random.PRNGKey(2), True)
-            s, m = a.update(s, batch, jax.random.PRNGKey(3), True)
+            s, _ = a.update_delayed(s, batch, jax.random.PRNGKey(2), True)
+            s, m = a.update_delayed(s, batch, jax.random.PRNGKey(3), True)
             return s, m
         return jax.vmap(one)(h)
 
@@ -153,8 +153,8 @@ def _check_with_hparams(learnable):
                                   **{k: x for k, x in v.items() if k != "k"})
         a = mk(cfg)
         s = a.init(jax.random.PRNGKey(0))
-        s, _ = a.update(s, batch, jax.random.PRNGKey(2), True)
-        s, m = a.update(s, batch, jax.random.PRNGKey(3), True)
+        s, _ = a.update_delayed(s, batch, jax.random.PRNGKey(2), True)
+        s, m = a.update_delayed(s, batch, jax.random.PRNGKey(3), True)
         np.testing.assert_allclose(metrics.critic_loss[lane], m.critic_loss, rtol=2e-5)
         for got, want in zip(jax.tree.leaves(states), jax.tree.leaves(s)):
             np.testing.assert_allclose(np.asarray(got)[lane], np.asarray(want), rtol=2e-5, atol=1e-6)

@@ -1,21 +1,22 @@
-"""The jitted TD3 training program: per-seed state, a ``lax.scan`` chunk of env steps, batched eval.
+"""The jitted training program of any agent: per-seed state, a ``lax.scan`` chunk of env steps, batched eval.
 
 Seeds are a leading (vmapped) axis of every array in :class:`TrainState`. Each seed's randomness
 comes only from its own keys: ``fold_in(PRNGKey(base_seed), seed_index)`` split into
 (init, train, env, eval) keys, so seed i alone equals seed i in a vmapped run.
 
-One env step t (global index, shared by all seeds, so the branches below stay real branches
-under vmap) for one seed, following the original TD3 ``main.py``:
+The agent is anything with the interface of ``swim_jax.agents.base.Agent`` (TD3, SAC: the
+registry ``swim_jax.agents.registry``). One env step t (global index, shared by all seeds, so the
+branches below stay real branches under vmap) for one seed, following the original TD3 ``main.py``:
 
     a_t  = U(low, high)                         if t < learning_starts
-         = clip(μ(s_t) + N(0,(0.1 m)²), low, high)  otherwise
+         = agent.explore(actor, s_t)            otherwise (TD3: clip(μ(s_t) + N(0,(0.1 m)²), low, high))
     (s', s_final) = step_autoreset(env, s_t, a_t)       s_final = true obs reached by the step
                     (all lanes at once; resets computed only when some lane's episode ended)
     replay ← (s_t, a_t, r_t, s_final, terminated = done·(1 − truncation))
-    if t ≥ learning_starts: one TD3 update, the actor's on iterations it = t − learning_starts + 1
-                            with it mod policy_freq = 0 (the original's ``total_it``)
+    if t ≥ learning_starts: one agent update at iteration it = t − learning_starts + 1 (delays such
+                            as TD3's actor on it mod policy_freq = 0 are the agent's own)
 
-Evaluation: ``episodes`` episodes per seed with the deterministic actor, all seeds × episodes
+Evaluation: ``episodes`` episodes per seed with the deterministic policy (``agent.act``), all seeds × episodes
 stepped together in one ``lax.while_loop`` that stops once every episode has ended (or after
 ``max_steps``); rewards after an episode's end are masked out.
 """
@@ -29,12 +30,9 @@ import jax.numpy as jnp
 
 from swim_jax import envs
 from swim_jax.agents import replay
-from swim_jax.agents.td3 import TD3, TD3State, UpdateMetrics
+from swim_jax.agents.base import Agent
 
 Array = jax.Array
-
-# Quantities checked for NaN/inf each step, in the order of ``TrainState.bad_step``'s last axis.
-CHECKED = ("critic_loss", "actor_loss", "actor_params", "critic_params")
 
 
 class TrainState(NamedTuple):
@@ -44,11 +42,11 @@ class TrainState(NamedTuple):
     eval_key: Array  # evaluation key (fold_in with the evaluation index)
     env_state: Any  # envs State (obs, physics, step counter)
     buffer: replay.ReplayState
-    agent: TD3State
+    agent: Any  # the agent's state (its ``actor`` field: the deterministic policy's parameters)
     episode_return: Array  # return of the running training episode
     last_return: Array  # return of the last finished training episode (nan before the first)
     episodes: Array  # finished training episodes (int32)
-    bad_step: Array  # int32[len(CHECKED)]: first step where the quantity was non-finite, or -1
+    bad_step: Array  # int32[len(agent.CHECKED)]: first step where the quantity was non-finite, or -1
 
 
 def seed_keys(base_seed, seed_index: Array) -> tuple[Array, Array, Array, Array]:
@@ -59,9 +57,9 @@ def seed_keys(base_seed, seed_index: Array) -> tuple[Array, Array, Array, Array]
     return k_init, k_train, k_env, k_eval
 
 
-def init_state(agent: TD3, env, replay_size: int, base_seed, seed_index: Array, hparams=None) -> TrainState:
+def init_state(agent: Agent, env, replay_size: int, base_seed, seed_index: Array, hparams=None) -> TrainState:
     """Fresh per-seed state: initial params, empty buffer, env reset with the seed's env key.
-    ``hparams``: this lane's sweep values (``TD3.with_hparams``; a learnable k starts at its value)."""
+    ``hparams``: this lane's sweep values (``agent.with_hparams``; a learnable k starts at its value)."""
     agent = agent.with_hparams(hparams)
     k_init, k_train, k_env, k_eval = seed_keys(base_seed, seed_index)
     dt = agent.dtype
@@ -74,44 +72,19 @@ def init_state(agent: TD3, env, replay_size: int, base_seed, seed_index: Array, 
         episode_return=jnp.zeros((), dt),
         last_return=jnp.full((), jnp.nan, dt),
         episodes=jnp.zeros((), jnp.int32),
-        bad_step=jnp.full((len(CHECKED),), -1, jnp.int32),
+        bad_step=jnp.full((len(agent.CHECKED),), -1, jnp.int32),
     )
 
 
-def _all_finite(tree) -> Array:
-    leaves = jax.tree.leaves(tree)
-    return jnp.all(jnp.stack([jnp.all(jnp.isfinite(x)) for x in leaves]))
+def summarize_updates(m, updated: Array):
+    """The per-lane summary of one call (the agent's ``ChunkMetrics``, each field [L]: its counts
+    and the count-weighted means of its metrics, nan where a count is 0) from per-step update
+    metrics stacked on axis 0 ([T, L]; their type carries the agent's ``MetricSpec``) and the
+    per-step "an update ran" flags ([T]): ``swim_jax.agents.metrics.MetricSpec.summarize``."""
+    return type(m).spec.summarize(m, updated)
 
 
-class ChunkMetrics(NamedTuple):
-    """Per-lane learning diagnostics of one call of the chunk (each field [L]): TD3 updates made,
-    their mean critic loss L_Q and mean Q₁ on the sampled batches, actor updates made and their
-    mean actor loss L_μ (nan where a count is 0)."""
-
-    updates: Array
-    critic_loss: Array
-    q_mean: Array
-    actor_updates: Array
-    actor_loss: Array
-
-
-def summarize_updates(m: UpdateMetrics, updated: Array) -> ChunkMetrics:
-    """:class:`ChunkMetrics` from per-step metrics stacked on axis 0 ([T, L]) and the per-step
-    "an update ran" flags ([T])."""
-    did = updated[:, None] & jnp.ones_like(m.actor_updated)
-    act = did & m.actor_updated
-    n, na = did.sum(0), act.sum(0)
-    mean = lambda x, w, k: jnp.where(k > 0, jnp.where(w, x, 0).sum(0) / jnp.maximum(k, 1), jnp.nan)
-    return ChunkMetrics(n.astype(jnp.int32), mean(m.critic_loss, did, n), mean(m.q_mean, did, n),
-                        na.astype(jnp.int32), mean(m.actor_loss, act, na))
-
-
-def _zero_metrics(dt) -> UpdateMetrics:
-    z = jnp.zeros((), dt)
-    return UpdateMetrics(z, z, z, jnp.zeros((), jnp.bool_))
-
-
-def _act(agent: TD3, learning_starts: int, s: TrainState, t: Array, hparams=None):
+def _act(agent: Agent, learning_starts: int, s: TrainState, t: Array, hparams=None):
     """One lane's action at step t (uniform before ``learning_starts``, else exploration) and its
     key stream: (action, next training key, reset key, update key)."""
     agent = agent.with_hparams(hparams)
@@ -141,7 +114,7 @@ def _record(s: TrainState, key: Array, action: Array, next_state, final_obs) -> 
     )
 
 
-def env_step_lanes(agent: TD3, env, learning_starts: int, states: TrainState, t: Array, hparams=None):
+def env_step_lanes(agent: Agent, env, learning_starts: int, states: TrainState, t: Array, hparams=None):
     """Every lane (axis 0 of ``states``) acts, the env steps all lanes at once with auto-reset
     (resets computed only on steps where some lane finished), and each lane stores its transition.
     Returns (states with new key/env/buffer/episode stats, update keys[L])."""
@@ -152,47 +125,44 @@ def env_step_lanes(agent: TD3, env, learning_starts: int, states: TrainState, t:
     return states, k_update
 
 
-def update_step(agent: TD3, learning_starts: int, s: TrainState, k_update: Array, t: Array,
-                hparams=None) -> tuple[TrainState, UpdateMetrics]:
-    """One lane's TD3 update at global step t (from ``learning_starts`` on; the actor on
-    iterations ``t - learning_starts + 1`` divisible by policy_freq), the NaN/inf watch, and the
-    update's metrics (zeros when no update ran)."""
+def update_step(agent: Agent, learning_starts: int, s: TrainState, k_update: Array, t: Array,
+                hparams=None):
+    """One lane's agent update at global step t (from ``learning_starts`` on, at iteration
+    ``t - learning_starts + 1``), the NaN/inf watch, and the update's metrics (zeros when no
+    update ran)."""
     agent = agent.with_hparams(hparams)
-    k_sample, k_td3 = jax.random.split(k_update)
+    k_sample, k_agent = jax.random.split(k_update)
     it = t - learning_starts + 1
-    update_actor = (it % agent.config.policy_freq) == 0
 
-    def do_update(a: TD3State):
+    def do_update(a):
         batch = replay.sample(s.buffer, k_sample, agent.config.batch_size)
-        new, m = agent.update(a, batch, k_td3, update_actor)
-        ok = jnp.stack([jnp.isfinite(m.critic_loss), jnp.isfinite(m.actor_loss),
-                        _all_finite(new.actor), _all_finite(new.critic)])
-        return new, m, ok
+        new, m = agent.update(a, batch, k_agent, it)
+        return new, m, agent.finite(new, m)
 
-    def no_update(a: TD3State):  # parameters unchanged: nothing new can be non-finite
-        return a, _zero_metrics(agent.dtype), jnp.ones((len(CHECKED),), jnp.bool_)
+    def no_update(a):  # parameters unchanged: nothing new can be non-finite
+        return a, agent.zero_metrics(), jnp.ones((len(agent.CHECKED),), jnp.bool_)
 
     agent_state, m, ok = jax.lax.cond(t >= learning_starts, do_update, no_update, s.agent)
     bad_step = jnp.where((s.bad_step < 0) & ~ok, t.astype(jnp.int32), s.bad_step)
     return s._replace(agent=agent_state, bad_step=bad_step), m
 
 
-def train_step_lanes(agent: TD3, env, learning_starts: int, states: TrainState, t: Array,
-                     hparams=None) -> tuple[TrainState, UpdateMetrics]:
-    """One env step and (from ``learning_starts`` on) one TD3 update for every lane at step t;
+def train_step_lanes(agent: Agent, env, learning_starts: int, states: TrainState, t: Array,
+                     hparams=None):
+    """One env step and (from ``learning_starts`` on) one agent update for every lane at step t;
     returns the new states and each lane's update metrics. ``hparams``: per-lane sweep values
-    ``{path: [L]}`` (see ``TD3.with_hparams``), None for none."""
+    ``{path: [L]}`` (see ``Agent.with_hparams``), None for none."""
     states, k_update = env_step_lanes(agent, env, learning_starts, states, t, hparams)
     return jax.vmap(lambda s, k, h: update_step(agent, learning_starts, s, k, t, h))(states, k_update, hparams)
 
 
-def make_chunk_fn(agent: TD3, env, learning_starts: int, num_steps: int):
-    """``chunk(states, t0, hparams) -> (states, ChunkMetrics)``: ``num_steps`` env steps
+def make_chunk_fn(agent: Agent, env, learning_starts: int, num_steps: int):
+    """``chunk(states, t0, hparams) -> (states, ChunkMetrics)`` (the agent's ``METRICS.chunk_type``): ``num_steps`` env steps
     t0 … t0+num_steps−1 for all lanes (states batched on axis 0; t0 an int32 scalar shared by the
     lanes; ``hparams`` a dict of per-lane sweep values ``{path: [L]}``, None for a plain
     multi-seed run) and the lanes' learning diagnostics over those steps. Jit it once."""
 
-    def chunk(states: TrainState, t0: Array, hparams=None) -> tuple[TrainState, ChunkMetrics]:
+    def chunk(states: TrainState, t0: Array, hparams=None):
         def body(carry, i):
             t = (t0 + i).astype(jnp.int32)
             carry, m = train_step_lanes(agent, env, learning_starts, carry, t, hparams)
@@ -232,7 +202,7 @@ def episode_returns(env, reset_keys: Array, policy, max_steps: int) -> Array:
     return jax.lax.while_loop(cond, body, init)[3]
 
 
-def make_eval_fn(agent: TD3, env, episodes: int, max_steps: int):
+def make_eval_fn(agent: Agent, env, episodes: int, max_steps: int):
     """``evaluate(actor_params[S], eval_keys[S], eval_index, hparams) -> returns[S, episodes]``:
     :func:`episode_returns` of the episodes from :func:`eval_reset_keys` with actions μ_s(obs).
     ``hparams``: per-lane sweep values ``{path: [S]}`` (the actor of a swept k uses its lane's k),

@@ -1,7 +1,10 @@
-"""TD3 networks (flax.linen): a deterministic actor and twin critics, activation injected by name.
+"""The agents' networks (flax.linen): actors and twin critics, activation injected by name.
 
 Actor:   a = tanh(W₃ σ(W₂ σ(W₁ s + b₁) + b₂) + b₃) · scale + offset,
-         scale = (high − low)/2, offset = (high + low)/2, so a ∈ [low, high].
+         scale = (high − low)/2, offset = (high + low)/2, so a ∈ [low, high]    (TD3)
+Gaussian actor (SAC): the same hidden stack with a head of 2·|A| outputs [μ; ρ], the mean μ and
+         log σ = lo + (hi − lo)·(tanh ρ + 1)/2 ∈ [lo, hi] (the log-std squashed into its range as
+         cleanrl / SpinUp do); the policy's action is tanh(μ + σ·ε)·scale + offset.
 Critics: Q_j(s, a) = W₃ʲ σ(W₂ʲ σ(W₁ʲ [s; a] + b₁ʲ) + b₂ʲ) + b₃ʲ for j = 1, 2, computed by ONE module
          vmapped over a leading critic axis of its parameters; output shape (2, batch).
 
@@ -191,6 +194,26 @@ class Actor(nn.Module):
         high = jnp.asarray(self.action_high, dtype)
         out = _Body(self.options, len(self.action_low), name="body")(obs)
         return jnp.tanh(out) * (high - low) / 2 + (high + low) / 2
+
+
+class GaussianActor(nn.Module):
+    """State-dependent Gaussian over pre-squash actions: ``__call__(obs[..., obs_dim]) -> (mean,
+    log_std)``, each ``[..., act_dim]``: the first half of the head's outputs is the mean, the second
+    the log-std squashed into [``log_std_min``, ``log_std_max``] (see the module docstring). Its
+    parameters have :class:`Actor`'s layout (``body/dense_<i>``, ``body/head``), the head twice as
+    wide."""
+
+    action_dim: int
+    log_std_min: float = -5.0
+    log_std_max: float = 2.0
+    options: NetworkOptions = NetworkOptions()
+
+    @nn.compact
+    def __call__(self, obs: Array) -> tuple[Array, Array]:
+        out = _Body(self.options, 2 * self.action_dim, name="body")(obs)
+        mean, raw = out[..., : self.action_dim], out[..., self.action_dim:]
+        lo, hi = self.log_std_min, self.log_std_max
+        return mean, lo + 0.5 * (hi - lo) * (jnp.tanh(raw) + 1)
 
 
 class _Critic(nn.Module):

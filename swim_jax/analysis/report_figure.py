@@ -20,6 +20,7 @@ from matplotlib.colors import to_hex, to_rgb  # noqa: E402
 from matplotlib.ticker import FuncFormatter, NullFormatter  # noqa: E402
 
 from swim_jax.activations import ACTIVATIONS, display_name  # noqa: E402
+from swim_jax.agents.registry import learning_panels  # noqa: E402
 
 # the reserved colours of the registry (Swim tab:red, Swish tab:blue, ReLU tab:green)
 COLORS = {name: spec.color for name, spec in ACTIVATIONS.items() if spec.color}
@@ -127,7 +128,8 @@ def figure4(groups: dict, paths: list[str]) -> None:
         _save(fig, paths)
 
 
-LEARNING_PANELS = (("critic_loss", "critic loss"), ("actor_loss", "actor loss"), ("q_mean", "Q estimate"))
+# (metric, panel title): the titled metrics every agent's update reports (swim_jax/agents/registry.py)
+LEARNING_PANELS = learning_panels()
 
 
 def learning_figure(table: dict, colors: dict[str, str], paths: list[str]) -> None:

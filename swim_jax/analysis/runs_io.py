@@ -44,6 +44,7 @@ import yaml
 
 from swim_jax.io import learning_log, provenance
 from swim_jax.activations import ACTIVATIONS, ActivationSetting, label_activation, parameter_defaults
+from swim_jax.agents.registry import learning_panels
 
 POOL_IGNORED_KEYS = frozenset({"seeds", "first_seed", "seed", "name", "out_dir", "keep_checkpoints",
                                "shard_lanes", "host_devices", "lane_groups"})  # placement only, same experiment
@@ -67,7 +68,8 @@ class LearningMetrics:
         return int(next(iter(self.values.values())).shape[1])
 
 
-METRIC_COLUMNS = ("critic_loss", "actor_loss", "q_mean")  # what the report plots
+# what the report plots: the titled metrics every agent reports (swim_jax/agents/registry.py)
+METRIC_COLUMNS = tuple(metric for metric, _ in learning_panels())
 
 
 @dataclass

@@ -198,7 +198,7 @@ def _update_program(activation: str, dtype, obs_dim=17, act_dim=6, updates=10):
 
     def run(state, key):
         def body(state, i):
-            new, metrics = agent.update(state, batch, jax.random.fold_in(key, i), i % 2 == 1)
+            new, metrics = agent.update_delayed(state, batch, jax.random.fold_in(key, i), i % 2 == 1)
             return new, metrics.critic_loss
 
         return jax.lax.scan(body, state, jnp.arange(updates))

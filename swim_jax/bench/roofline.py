@@ -91,7 +91,7 @@ def update_dots(agent) -> dict[bool, list[Dot]]:
     state = jax.eval_shape(agent.init, jax.random.key(0))
     out = {}
     for with_actor in (False, True):
-        jaxpr = jax.make_jaxpr(lambda s, bt, k: agent.update(s, bt, k, jnp.asarray(with_actor)))(
+        jaxpr = jax.make_jaxpr(lambda s, bt, k: agent.update_delayed(s, bt, k, jnp.asarray(with_actor)))(
             state, batch, jax.random.key(1))
         live, _ = dce_jaxpr(jaxpr.jaxpr, [True] * len(jaxpr.jaxpr.outvars))
         dots: list[Dot] = []

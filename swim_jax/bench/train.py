@@ -97,7 +97,7 @@ def update_flops(agent) -> float:
     state = jax.eval_shape(agent.init, jax.random.key(0))
     counts = []
     for with_actor in (False, True):
-        fn = jax.jit(lambda s, bt, k, w=with_actor: agent.update(s, bt, k, jnp.asarray(w)))
+        fn = jax.jit(lambda s, bt, k, w=with_actor: agent.update_delayed(s, bt, k, jnp.asarray(w)))
         cost = fn.lower(state, batch, jax.random.key(1)).compile().cost_analysis()
         counts.append(float((cost[0] if isinstance(cost, list) else cost)["flops"]))
     d = agent.config.policy_freq

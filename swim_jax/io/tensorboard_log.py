@@ -4,8 +4,8 @@ Each run folder (each sweep point's folder) gets ``tensorboard/seed_<i>/events.o
 one TensorBoard run per seed, so ``tensorboard --logdir <run folder>`` (or ``--logdir runs``) shows
 every seed as its own curve. Tags, with the env steps done as the step:
 
-* ``train/<column>`` for every column of ``metrics.csv`` except step and seed
-  (:data:`swim_jax.io.learning_log.COLUMNS`), at the end of each chunk: the same numbers as the csv
+* ``train/<column>`` for every column of ``metrics.csv`` except step and seed (the agent's counts
+  and metrics, at least :data:`TRAIN_COLUMNS`, and the episode columns), at the end of each chunk: the same numbers as the csv
   (:func:`swim_jax.io.learning_log.chunk_rows`), stored as float32 (TensorBoard's scalar format);
   nan cells (no update in the chunk yet, no training episode finished yet) are left out;
 * ``eval/return``: the seed's mean evaluation return (a cell of ``evaluations.npy``) at every
@@ -30,7 +30,8 @@ from swim_jax.io import learning_log
 
 DIRNAME = "tensorboard"
 EVAL_TAG = "eval/return"
-TRAIN_COLUMNS = tuple(c for c in learning_log.COLUMNS if c not in ("step", "seed"))
+# the train/ tags of every run (an agent may log more: all of its metrics.csv columns)
+TRAIN_COLUMNS = tuple(c for c in learning_log.COLUMNS if c not in learning_log.BASE_COLUMNS)
 INSTALL = "pip install -c requirements.lock -e '.[tensorboard]'"
 
 
@@ -82,12 +83,13 @@ class TensorBoardLog:
         for seed, r in zip(seed_ids, returns):
             self._add(out_dir, int(seed), EVAL_TAG, float(r), step)
 
-    def chunk(self, out_dir: str, rows: list[tuple]) -> None:
-        """The ``train/<column>`` scalars of :func:`swim_jax.io.learning_log.chunk_rows`' rows."""
+    def chunk(self, out_dir: str, rows: list[dict]) -> None:
+        """The ``train/<column>`` scalars of :func:`swim_jax.io.learning_log.chunk_rows`' rows: every
+        column but step and seed."""
         for row in rows:
-            values = dict(zip(learning_log.COLUMNS, row))
-            for column in TRAIN_COLUMNS:
-                self._add(out_dir, values["seed"], train_tag(column), values[column], values["step"])
+            for column, value in row.items():
+                if column not in learning_log.BASE_COLUMNS:
+                    self._add(out_dir, row["seed"], train_tag(column), value, row["step"])
 
     def _add(self, out_dir: str, seed: int, tag: str, value: float, step: int) -> None:
         if math.isfinite(value):

@@ -2,8 +2,9 @@
 
 swim_jax/io/checkpoint.py stores the whole training state (``(TrainState, evaluations)``) as orbax
 leaves ``"00000"``, ``"00001"``, … in ``jax.tree.leaves`` order, zero-size leaves left out. The
-online actor's parameters are the first run of consecutive leaves shaped like the actor: the
-``TD3State`` inside ``TrainState`` starts with it (swim_jax/agents/loop.py, swim_jax/agents/td3.py), its leaves in the
+online actor's parameters are the first run of consecutive leaves shaped like the actor (its
+head as wide as the agent's, :func:`swim_jax.policy.policy.actor_leaf_shapes`): every agent's state
+inside ``TrainState`` starts with it (``actor``: swim_jax/agents/loop.py, swim_jax/agents/base.py), its leaves in the
 sorted order of :func:`swim_jax.policy.policy.actor_leaf_names`, each with the lanes in front
 (``[lanes, …]``); what comes before it (keys, env state, replay buffer) has other shapes, and the
 critics carry a critic axis. Only those leaves are read (orbax partial restore), so this works for

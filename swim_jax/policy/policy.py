@@ -5,8 +5,10 @@
     action = policy(obs)              # obs [obs_size] or [..., obs_size], float64 or float32
     policy.export("cheetah_swim.npz") # self-contained: weights + a JSON header (see below)
 
-:class:`Policy` is the TD3 actor of ``swim_jax/agents/networks.py``, a = tanh(W_n σ(… σ(W_1 s + b_1) …) + b_n)
-· (high − low)/2 + (high + low)/2, computed with NumPy in the run's precision (float32 or float64,
+:class:`Policy` is the deterministic policy of a run's actor (``swim_jax/agents/networks.py``),
+a = tanh(h) · (high − low)/2 + (high + low)/2 with h the actor's head: for TD3 (``head``
+``deterministic``) all of W_n σ(… σ(W_1 s + b_1) …) + b_n, for SAC (``gaussian``) its first half, the
+mean of the Gaussian (the second half is its log-std, unused: the mean action). Computed with NumPy in the run's precision (float32 or float64,
 ``dtype=`` to change it): σ is the NumPy twin of the run's activation (``swim_jax.policy.activations``,
 the registry's ``numpy`` entries) with its parameters per hidden layer: the config's values, a
 sweep point's own value (a point folder's config.yaml), or the learned k/β/α of a learnable run
@@ -25,7 +27,9 @@ An exported file (:meth:`Policy.export`, :func:`load_exported`) is an ``.npz`` w
 ``W0 … Wn`` (kernels ``[in, out]``), ``b0 … bn`` and ``header``, a JSON string: ``format``
 (``"swim-jax-policy"``), ``version``, ``env_id``, ``obs_size``, ``action_size``, ``hidden``,
 ``activation``, ``layer_params`` (one ``{param: value}`` per hidden layer), ``dtype``, ``matmul_dtype``
-(``"full"`` or ``"bfloat16"``; files written before 2026-12-06 call it ``matmul``), ``action_low``, ``action_high``, ``source`` (run, seed, step). README
+(``"full"`` or ``"bfloat16"``; files written before 2026-12-06 call it ``matmul``), ``action_low``, ``action_high``, ``source`` (run, seed, step),
+``head`` (``deterministic`` or ``gaussian``: the action is tanh of the first ``action_size`` outputs;
+version 3; older files are ``deterministic``). README
 (Usage, "Trained policies outside the project") shows the NumPy lines that run it without this
 project.
 
@@ -51,8 +55,13 @@ from swim_jax.io import provenance
 FINAL = "final_policy.npz"
 CHECKPOINTS = "checkpoints"
 EXPORT_FORMAT = "swim-jax-policy"
-EXPORT_VERSION = 2  # 2: the header key "matmul" became "matmul_dtype" (version 1 files still load)
+EXPORT_VERSION = 3  # 2: the header key "matmul" became "matmul_dtype"; 3: "head" (older files still load)
 MATMUL_DTYPES = ("full", "bfloat16")
+# how the actor's head gives the action: outputs per action dimension (the action is tanh of the
+# first action_size outputs, scaled): TD3's tanh head, SAC's Gaussian [mean; log-std]
+HEADS = {"deterministic": 1, "gaussian": 2}
+# the head of each agent.kind (swim_jax.agents.registry: each agent's POLICY_HEAD; a test checks they agree)
+AGENT_HEADS = {"td3": "deterministic", "sac": "gaussian"}
 
 
 class PolicyError(ValueError):
@@ -75,10 +84,11 @@ def round_bfloat16(x: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True, eq=False)
 class Policy:
-    """A deterministic TD3 actor in NumPy: ``policy(obs) -> action`` (see the module docstring).
+    """A run's deterministic policy in NumPy: ``policy(obs) -> action`` (see the module docstring).
 
     ``kernels[i]`` is ``[in, out]`` (hidden layers, then the head), ``layer_params[i]`` the
-    activation's parameters in hidden layer ``i``; ``matmul_dtype`` is ``"full"`` or ``"bfloat16"``."""
+    activation's parameters in hidden layer ``i``; ``matmul_dtype`` is ``"full"`` or ``"bfloat16"``;
+    ``head`` one of :data:`HEADS` (the head has ``HEADS[head]`` outputs per action dimension)."""
 
     env_id: str
     kernels: tuple[np.ndarray, ...]
@@ -90,6 +100,7 @@ class Policy:
     dtype: np.dtype = np.dtype(np.float32)
     matmul_dtype: str = "full"
     source: Mapping = field(default_factory=dict)
+    head: str = "deterministic"
 
     def __post_init__(self):
         dt = np.dtype(self.dtype)
@@ -97,6 +108,8 @@ class Policy:
             raise PolicyError(f"dtype {dt} is not supported; valid: float32, float64")
         if self.matmul_dtype not in MATMUL_DTYPES:
             raise PolicyError(f"unknown matmul_dtype {self.matmul_dtype!r}; valid: {', '.join(MATMUL_DTYPES)}")
+        if self.head not in HEADS:
+            raise PolicyError(f"unknown head {self.head!r}; valid: {', '.join(HEADS)}")
         try:
             fn = activations_np.get(self.activation)
         except ValueError as e:
@@ -118,9 +131,10 @@ class Policy:
             raise PolicyError(f"activation {self.activation!r} takes {', '.join(names) or 'no parameters'}, "
                               f"got {', '.join(bad) or 'none'}")
         low, high = (np.asarray(v, np.float64).reshape(-1) for v in (self.action_low, self.action_high))
-        if low.shape != (kernels[-1].shape[1],) or high.shape != low.shape:
-            raise PolicyError(f"action bounds {low.shape}/{high.shape} do not match the head's "
-                              f"{kernels[-1].shape[1]} outputs")
+        outputs = kernels[-1].shape[1]
+        if low.shape != (outputs // HEADS[self.head],) or high.shape != low.shape or outputs % HEADS[self.head]:
+            raise PolicyError(f"action bounds {low.shape}/{high.shape} do not match the {self.head} head's "
+                              f"{outputs} outputs ({HEADS[self.head]} per action)")
         set_ = functools.partial(object.__setattr__, self)
         set_("dtype", dt)
         set_("kernels", kernels)
@@ -141,7 +155,7 @@ class Policy:
 
     @property
     def action_size(self) -> int:
-        return int(self.kernels[-1].shape[1])
+        return int(self.kernels[-1].shape[1]) // HEADS[self.head]
 
     @property
     def hidden(self) -> tuple[int, ...]:
@@ -161,8 +175,9 @@ class Policy:
             x = x @ w + b
             if i < last:
                 x = self._fn(x, **self.layer_params[i])
+        x = x[..., : self.action_size]  # a Gaussian head's mean (its log-std half unused)
         low, high = self.action_low.astype(self.dtype), self.action_high.astype(self.dtype)
-        return np.tanh(x) * (high - low) / 2 + (high + low) / 2  # as swim_jax.agents.networks.Actor
+        return np.tanh(x) * (high - low) / 2 + (high + low) / 2  # as the agents' act (TD3's Actor, SAC's mean)
 
     # --------------------------------------------------------------------------------- export
 
@@ -174,7 +189,7 @@ class Policy:
             "activation": self.activation, "layer_params": [dict(p) for p in self.layer_params],
             "dtype": self.dtype.name, "matmul_dtype": self.matmul_dtype,
             "action_low": self.action_low.tolist(), "action_high": self.action_high.tolist(),
-            "source": dict(self.source),
+            "source": dict(self.source), "head": self.head,
         }
 
     def export(self, path: str) -> None:
@@ -197,7 +212,7 @@ def load_exported(path: str) -> Policy:
         return Policy(head["env_id"], tuple(arrays[f"W{i}"] for i in range(n)), tuple(arrays[f"b{i}"] for i in range(n)),
                       head["activation"], tuple(head["layer_params"]), np.asarray(head["action_low"]),
                       np.asarray(head["action_high"]), np.dtype(head["dtype"]), head.get("matmul_dtype", head.get("matmul")),
-                      head.get("source", {}))
+                      head.get("source", {}), head.get("head", "deterministic"))
     except PolicyError as e:
         raise PolicyError(f"{path}: {e}") from None
     except (OSError, ValueError, KeyError, TypeError, EOFError) as e:
@@ -346,9 +361,10 @@ def actor_leaf_names(cfg: Mapping, where: str = "config") -> tuple[str, ...]:
 
 
 def actor_leaf_shapes(cfg: Mapping, obs_size: int, action_size: int, where: str = "config") -> tuple[tuple[int, ...], ...]:
-    """The shapes of :func:`actor_leaf_names`' leaves (one seed's) for the env's sizes."""
+    """The shapes of :func:`actor_leaf_names`' leaves (one seed's) for the env's sizes (the head
+    ``HEADS[head]`` outputs per action dimension, :func:`policy_head`)."""
     hidden = _network(cfg, where)[0]
-    widths = (obs_size, *hidden, action_size)
+    widths = (obs_size, *hidden, action_size * HEADS[policy_head(cfg, where)])
     shape = {f"{'head' if i == len(hidden) else f'dense_{i}'}/{leaf}": (widths[i + 1],) if leaf == "bias"
              else (widths[i], widths[i + 1]) for i in range(len(hidden) + 1) for leaf in ("bias", "kernel")}
     return tuple(shape.get(n.split("/", 2)[2], ()) for n in actor_leaf_names(cfg, where))
@@ -374,11 +390,14 @@ def policy_from_leaves(flat: Mapping[str, np.ndarray], cfg: Mapping, where: str,
     else:
         params = tuple({p: values.get(p, defaults[p]) for p in names} for _ in hidden)  # missing: older config
     obs_size, low, high = env_spec(cfg["env"]["id"]) if spec is None else spec
-    if (kernels[0].shape[0], kernels[-1].shape[1]) != (obs_size, low.size):
+    head = policy_head(cfg, where)
+    if (kernels[0].shape[0], kernels[-1].shape[1]) != (obs_size, low.size * HEADS[head]):
         raise PolicyError(f"{where}: the actor maps {kernels[0].shape[0]} observations to {kernels[-1].shape[1]} "
-                          f"actions, {cfg['env']['id']} has {obs_size} and {low.size}")
+                          f"outputs, {cfg['env']['id']} has {obs_size} and {low.size} actions ({head} head: "
+                          f"{HEADS[head]} outputs per action)")
     try:
-        return Policy(cfg["env"]["id"], kernels, biases, name, params, low, high, np.dtype(dtype), matmul_dtype, source or {})
+        return Policy(cfg["env"]["id"], kernels, biases, name, params, low, high, np.dtype(dtype), matmul_dtype,
+                      source or {}, head)
     except PolicyError as e:
         raise PolicyError(f"{where}: {e}") from None
 
@@ -434,7 +453,15 @@ def env_spec(env_id: str) -> tuple[int, np.ndarray, np.ndarray]:
 def _with(policy: Policy, dtype, matmul_dtype) -> Policy:
     return Policy(policy.env_id, policy.kernels, policy.biases, policy.activation, policy.layer_params,
                   policy.action_low, policy.action_high, policy.dtype if dtype is None else np.dtype(dtype),
-                  policy.matmul_dtype if matmul_dtype is None else matmul_dtype, policy.source)
+                  policy.matmul_dtype if matmul_dtype is None else matmul_dtype, policy.source, policy.head)
+
+
+def policy_head(cfg: Mapping, where: str = "config") -> str:
+    """The actor head (:data:`HEADS`) of the run config's ``agent.kind`` (td3 when it names none)."""
+    kind = (cfg.get("agent") or {}).get("kind", "td3") if isinstance(cfg.get("agent"), Mapping) else "td3"
+    if kind not in AGENT_HEADS:
+        raise PolicyError(f"{where}/config.yaml: unknown agent.kind {kind!r}; valid: {', '.join(AGENT_HEADS)}")
+    return AGENT_HEADS[kind]
 
 
 def _read_config(run_dir: str) -> dict:

@@ -2,7 +2,7 @@
 
 ``placement(cfg)`` decides how the lanes spread over the devices (of every process: a sharding of one
 program, or on a CPU one program per group of lanes, swim_jax/placement/lane_groups.py), ``programs(cfg,
-sharding)`` builds (or reuses) the env, eval env, TD3 agent and the three jitted functions of
+sharding)`` builds (or reuses) the env, eval env, agent (``agent.kind``'s) and the three jitted functions of
 swim_jax/agents/loop.py for that placement, and ``lanes(cfg, prog, sharding)`` gives their per-lane inputs
 (seed ids, sweep values). ``swim_jax.run.train`` runs them; ``swim_jax.run.render``/``roofline`` use
 :func:`build` and ``swim_jax.bench.train`` times :func:`programs`' chunk.
@@ -22,7 +22,7 @@ from jax._src import xla_bridge
 
 from swim_jax import envs
 from swim_jax.agents import loop
-from swim_jax.agents.td3 import TD3
+from swim_jax.agents import registry
 from swim_jax import config as cfgmod
 from swim_jax.placement import lane_groups, stepping
 from swim_jax.placement.layout import LaneLayout
@@ -54,7 +54,8 @@ def with_physics_backend(cfg: Config) -> Config:
 
 
 def build(cfg: Config):
-    """(env, eval env, agent) for a validated config, in the configured precision."""
+    """(env, eval env, agent) for a validated config, in the configured precision; the agent is the
+    registry's class of ``cfg.agent.kind`` (swim_jax/agents/registry.py)."""
     _setup_precision(cfg)
     backend, _ = physics_backend(cfg)
     options = dict(max_episode_steps=cfg.env.max_episode_steps, backend=backend)
@@ -65,7 +66,7 @@ def build(cfg: Config):
     except ValueError as e:  # e.g. native_call=ffi where the FFI is unavailable
         raise cfgmod.ConfigError(str(e)) from None
     dtype = jnp.float64 if cfg.precision == "float64" else jnp.float32
-    agent = TD3(
+    agent = registry.of_config(cfg.agent)(
         cfg.agent,
         env.observation_size,
         tuple(float(x) for x in np.asarray(env.action_low)),
@@ -107,7 +108,7 @@ _PROGRAMS: dict = {}
 def lane_inputs(cfg: Config, dtype) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """(seed index per lane int32[L], sweep values per lane ``{agent path: [L]}``) of ``cfg``'s
     :class:`~swim_jax.placement.layout.LaneLayout`. Paths drop the ``agent.`` prefix
-    (``activation.k``), as ``TD3.with_hparams`` takes them."""
+    (``activation.k``), as the agent's ``with_hparams`` takes them."""
     layout = LaneLayout.of(cfg)
     return layout.seed_ids(), {key.split(".", 1)[1]: layout.per_lane(key, dtype) for key in cfg.sweep}
 

@@ -1,4 +1,4 @@
-"""Train TD3 on every seed at once: ``python -m swim_jax.train config=walker_swim [key=value ...]``.
+"""Train an agent (TD3, or ``agent.kind=sac``) on every seed at once: ``python -m swim_jax.train config=walker_swim [key=value ...]``.
 
     python -m swim_jax.train config=cheetah_swim seeds=5 total_steps=200000 precision=float64
     python -m swim_jax.train --resume runs/cheetah_swim-20260101-120000     (or resume=<dir>)
@@ -55,7 +55,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from swim_jax.agents.loop import CHECKED, ChunkMetrics
+from swim_jax.agents import registry
 from swim_jax import config as cfgmod
 from swim_jax.placement import distributed, local_processes
 from swim_jax.io import learning_log, provenance
@@ -145,7 +145,8 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
     then per chunk of ``eval_freq`` steps: train, stop on NaN/inf, evaluate, log, checkpoint,
     write the evaluations and ``log`` a progress line; finally the final policy and timing."""
     clock = _Clock(time.time())
-    say(f"building {cfg.env.id} ({cfg.env.backend} physics: {physics_why}; {cfg.precision}) and the TD3 program for "
+    say(f"building {cfg.env.id} ({cfg.env.backend} physics: {physics_why}; {cfg.precision}) and the "
+        f"{cfg.agent.kind.upper()} program for "
         f"{LaneLayout.of(cfg).count} lanes; {matmul_dtype(cfg)[1]}")
     sharding, groups = placement(cfg, log)
     prog = programs(cfg, sharding)
@@ -199,7 +200,7 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
         bad = to_host(states.bad_step)  # waits for the chunk
         dt = clock.trained(time.time() - t0, cfg.eval_freq)
         step = (c + 1) * cfg.eval_freq
-        _stop_if_non_finite(layout, bad[: layout.real], ckpt, run_dir)
+        _stop_if_non_finite(layout, bad[: layout.real], ckpt, run_dir, prog.agent.CHECKED)
         say.doing(f"evaluating at step {step} ({cfg.eval_episodes} episodes per lane)")
         folder.evaluation(c + 1, evals.run(states, c + 1), states.agent)
         folder.chunk(step, metrics, to_host(states.episodes), to_host(states.last_return))
@@ -403,9 +404,11 @@ def _timing(cfg: Config, prog: Programs, lanes: Lanes, evals: _Evaluations, cloc
     }
 
 
-def _stop_if_non_finite(layout: LaneLayout, bad_step: np.ndarray, ckpt: Checkpointer, run_dir: str) -> None:
-    """Raise :class:`NonFiniteError` naming the earliest NaN/inf in ``bad_step[real lanes, CHECKED]``."""
-    hit = _first_bad(bad_step)
+def _stop_if_non_finite(layout: LaneLayout, bad_step: np.ndarray, ckpt: Checkpointer, run_dir: str,
+                        checked: tuple[str, ...]) -> None:
+    """Raise :class:`NonFiniteError` naming the earliest NaN/inf in ``bad_step[real lanes, checked]``
+    (``checked``: the agent's ``CHECKED``)."""
+    hit = _first_bad(bad_step, checked)
     if hit is None:
         return
     lane, st, q = hit
@@ -417,13 +420,14 @@ def _stop_if_non_finite(layout: LaneLayout, bad_step: np.ndarray, ckpt: Checkpoi
     )
 
 
-def _first_bad(bad_step: np.ndarray):
-    """(seed position, step, quantity) of the earliest non-finite event, or None."""
+def _first_bad(bad_step: np.ndarray, checked: tuple[str, ...] = registry.get(registry.DEFAULT_KIND).CHECKED):
+    """(seed position, step, quantity of ``checked``, the agent's ``CHECKED``) of the earliest
+    non-finite event, or None."""
     bad = np.where(bad_step < 0, np.iinfo(np.int64).max, bad_step.astype(np.int64))
     if bad.min() == np.iinfo(np.int64).max:
         return None
     s, q = np.unravel_index(np.argmin(bad), bad.shape)
-    return int(s), int(bad[s, q]), CHECKED[q]
+    return int(s), int(bad[s, q]), checked[q]
 
 
 PROGRESS_EVERY_S = 30.0
@@ -463,9 +467,9 @@ def train_chunk(cfg: Config, stepper, parts, c: int, say, beat: Heartbeat | None
     return parts, learning_log.combine(to_host(metrics))
 
 
-def _merge_pieces(pieces: list) -> ChunkMetrics:
-    """The metrics of one call made of consecutive ``pieces`` (host :class:`ChunkMetrics`)."""
-    return ChunkMetrics(**learning_log.combine(pieces))
+def _merge_pieces(pieces: list):
+    """The metrics of one call made of consecutive ``pieces`` (host ``ChunkMetrics`` of the agent)."""
+    return type(pieces[0])(**learning_log.combine(pieces))
 
 
 def _progress_line(cfg: Config, layout: LaneLayout, step: int, ev: np.ndarray, dt: float, first: bool,
