@@ -360,3 +360,21 @@ def test_what_derives_from_the_registry():
     assert registry.learning_panels() == (("critic_loss", "critic loss"), ("actor_loss", "actor loss"),
                                           ("q_mean", "Q estimate"))
     assert "kind:" not in cfgmod.dump(cfgmod.resolve("hopper_relu", []))  # TD3 run folders read as before
+
+
+def test_a_report_refuses_to_pool_sac_and_td3_runs_in_one_line(sac_run, tmp_path):
+    """A TD3 run of the same env, activation and budget (the SAC folder with a TD3 config.yaml) is
+    another experiment: pooling them as seeds is refused naming agent.kind."""
+    import yaml
+
+    from swim_jax.analysis import runs_io
+
+    td3 = str(tmp_path / "td3")
+    shutil.copytree(sac_run.run_dir, td3, ignore=shutil.ignore_patterns("checkpoints", "tensorboard"))
+    cfg = yaml.safe_load(open(os.path.join(td3, "config.yaml")))
+    cfg["agent"] = cfgmod.to_dict(cfgmod.resolve("hopper_swim", ["agent.hidden=[32,32]", "agent.activation.learnable=true"]))["agent"]
+    cfg["seed"] = 1  # other seeds: only the algorithm stands in the way
+    with open(os.path.join(td3, "config.yaml"), "w") as f:
+        yaml.safe_dump(cfg, f)
+    with pytest.raises(runs_io.RunError, match=r"differ in agent\.kind \('sac' vs 'td3'\)"):
+        runs_io.load_and_group([sac_run.run_dir, td3], allow_incomplete=True)

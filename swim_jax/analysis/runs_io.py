@@ -44,6 +44,7 @@ import yaml
 
 from swim_jax.io import learning_log, provenance
 from swim_jax.activations import ACTIVATIONS, ActivationSetting, label_activation, parameter_defaults
+from swim_jax.agents.base import DEFAULT_KIND
 from swim_jax.agents.registry import learning_panels
 
 POOL_IGNORED_KEYS = frozenset({"seeds", "first_seed", "seed", "name", "out_dir", "keep_checkpoints",
@@ -151,12 +152,11 @@ def activation_label(act: dict) -> str:
 
 def _with_default_activation_params(cfg: dict) -> dict:
     """``cfg`` with every registry activation parameter its ``agent.activation`` lacks set to the
-    default, so a run folder written before that parameter existed pools with newer ones."""
+    default, so a run folder written before that parameter existed pools with newer ones, and with
+    ``agent.kind`` (not written for TD3, the default) set."""
     act = cfg["agent"]["activation"]
     missing = {k: v for k, v in parameter_defaults().items() if k not in act}
-    if not missing:
-        return cfg
-    return {**cfg, "agent": {**cfg["agent"], "activation": {**act, **missing}}}
+    return {**cfg, "agent": {"kind": DEFAULT_KIND, **cfg["agent"], "activation": {**act, **missing}}}
 
 
 def load_run(path: str, at_step: int | None = None) -> Run:
@@ -420,7 +420,7 @@ def _pool(env: str, act: str, runs: list[Run], n: int, eval_freq: int) -> Curves
     for r in runs:
         diff = _dict_diff(ref, flat_config(r.config, POOL_IGNORED_KEYS))
         if diff:
-            k = diff[0]
+            k = "agent.kind" if "agent.kind" in diff else diff[0]  # another algorithm: its keys differ too
             raise RunError(f"{env}/{act}: cannot pool {runs[0].path} and {r.path} as seeds of one "
                            f"experiment: they differ in {k} ({ref.get(k)!r} vs "
                            f"{flat_config(r.config, POOL_IGNORED_KEYS).get(k)!r})")
