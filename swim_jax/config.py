@@ -325,6 +325,19 @@ def _config_file(name: str, config_dir: str, inheriting: str | None) -> str:
                       f"configs ({', '.join(available_configs(config_dir))}, and their _<env> bases)")
 
 
+def load_yaml_mapping(path: str, name: str, expected: str) -> dict:
+    """The mapping in the YAML file ``path`` (empty file: ``{}``); :class:`ConfigError` naming
+    ``name`` when it is not valid YAML or not a mapping (``expected`` says what it should be)."""
+    with open(path) as f:
+        try:
+            data = yaml.safe_load(f) or {}
+        except yaml.YAMLError as e:
+            raise ConfigError(f"{name}: invalid YAML ({str(e).splitlines()[0]})") from None
+    if not isinstance(data, dict):
+        raise ConfigError(f"{name}: expected {expected}")
+    return data
+
+
 def load_yaml_chain(name: str, config_dir: str = CONFIG_DIR, _seen=()) -> dict:
     """Load config ``name`` with its ``inherit`` chain merged (parents first): ``walker_swim`` is
     ``<config_dir>/walker_swim.yaml``, ``path/to/my.yaml`` a file of one's own, whose ``inherit:``
@@ -332,13 +345,7 @@ def load_yaml_chain(name: str, config_dir: str = CONFIG_DIR, _seen=()) -> dict:
     path = _config_file(name, config_dir, _seen[-1] if _seen else None)
     if path in _seen:
         raise ConfigError(f"config {name!r}: circular inherit")
-    with open(path) as f:
-        try:
-            data = yaml.safe_load(f) or {}
-        except yaml.YAMLError as e:
-            raise ConfigError(f"config {name!r}: invalid YAML ({str(e).splitlines()[0]})") from None
-    if not isinstance(data, dict):
-        raise ConfigError(f"config {name!r}: expected a mapping at top level")
+    data = load_yaml_mapping(path, f"config {name!r}", "a mapping at top level")
     parent = data.pop("inherit", None)
     if parent is not None:
         data = deep_merge(load_yaml_chain(str(parent), config_dir, _seen + (path,)), data)
@@ -510,13 +517,7 @@ def read_run_config(run_dir: str, overrides: list[str] = ()) -> tuple[dict, Conf
     path = os.path.join(run_dir, "config.yaml")
     if not os.path.isfile(path):
         raise ConfigError(f"{path} not found")
-    with open(path) as f:
-        try:
-            raw = yaml.safe_load(f) or {}
-        except yaml.YAMLError as e:
-            raise ConfigError(f"{path}: invalid YAML ({str(e).splitlines()[0]})") from None
-    if not isinstance(raw, dict):
-        raise ConfigError(f"{path} is not a config mapping")
+    raw = load_yaml_mapping(path, path, "a config mapping")
     data = {**raw, "matmul_dtype": provenance.config_matmul_dtype(run_dir, raw)}
     return raw, validate(from_dict(Config, apply_overrides(data, list(overrides))))
 

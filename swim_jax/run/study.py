@@ -114,13 +114,10 @@ def load(path: str, out_dir: str | None = None) -> Study:
             raise StudyError(f"study file {path} not found; or a shipped study by name: "
                              f"{', '.join(cfgmod.available_studies())} (table2: the paper's)")
         path = shipped
-    with open(path) as f:
-        try:
-            data = yaml.safe_load(f) or {}
-        except yaml.YAMLError as e:
-            raise StudyError(f"{path}: invalid YAML ({str(e).splitlines()[0]})") from None
-    if not isinstance(data, dict):
-        raise StudyError(f"{path}: expected a mapping with keys {', '.join(STUDY_KEYS)}")
+    try:
+        data = cfgmod.load_yaml_mapping(path, path, f"a mapping with keys {', '.join(STUDY_KEYS)}")
+    except ConfigError as e:
+        raise StudyError(str(e)) from None
     unknown = [k for k in data if k not in STUDY_KEYS]
     if unknown:
         raise StudyError(f"{path}: unknown key {unknown[0]!r}; valid keys: {', '.join(STUDY_KEYS)}")
