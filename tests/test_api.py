@@ -31,7 +31,7 @@ def readme_snippet() -> str:
 def snippet(tmp_path_factory):
     """README's snippet run as written, with swim_jax.train's budget replaced by a tiny one."""
     out = tmp_path_factory.mktemp("api")
-    real = api.train
+    real = api.train_run
     calls = []
 
     def tiny_train(config, overrides=None, **keys):
@@ -40,7 +40,7 @@ def snippet(tmp_path_factory):
                                                              "out_dir": str(out)}, log=lambda s: None)
 
     mp = pytest.MonkeyPatch()
-    mp.setattr(api, "train", tiny_train)
+    mp.setattr(api, "train_run", tiny_train)  # (swim_jax.train is the command module; the API says train_run)
     namespace: dict = {}
     try:
         exec(compile(readme_snippet(), "README.md", "exec"), namespace)
@@ -84,3 +84,12 @@ def test_api_errors_are_one_line_config_errors(tmp_path):
     assert swim_jax.resolve("hopper_swim", {"agent.activation.k": 2}, seeds=3).agent.activation.k == 2.0
     with pytest.raises(AttributeError):
         swim_jax.nothing_here
+
+
+def test_the_command_modules_and_the_api_do_not_shadow_each_other():
+    """``from swim_jax import train`` is the command module (python -m swim_jax.train), whether or not
+    it was imported before; the API's function is ``swim_jax.train_run``."""
+    from swim_jax import train as door
+
+    assert hasattr(door, "main") and door.__name__ == "swim_jax.train"
+    assert swim_jax.train_run is api.train_run and swim_jax.load_runs is api.load_runs

@@ -1,12 +1,12 @@
 """The Python API, for notebooks and scripts (``import swim_jax``)::
 
     import swim_jax
-    run = swim_jax.train("cheetah_relu", {"agent.activation.name": "swim"}, seeds=3, total_steps=50_000)
+    run = swim_jax.train_run("cheetah_relu", {"agent.activation.name": "swim"}, seeds=3, total_steps=50_000)
     run.returns                       # [evaluations, seeds] mean evaluation returns; run.steps their steps
     runs = swim_jax.load_runs(["runs/cheetah_swim-<ts>", "runs/cheetah_swish-<ts>"], at_step=30_000)
     rows = swim_jax.results(runs)     # tidy per-seed rows: env, env_version, algorithm, activation, ...
 
-:func:`train` is ``python -m swim_jax.train`` in this process (same config resolution, validation,
+:func:`train_run` is ``python -m swim_jax.train`` in this process (same config resolution, validation,
 run folder, checkpoints and ``--resume``); :func:`load_runs` reads run folders as the report does
 (``swim_jax.analysis.runs_io.Run``); :func:`results` gives their evaluations as one row per seed and
 evaluation step, the rows of a report's ``results.csv``.
@@ -36,7 +36,7 @@ def resolve(config: str, overrides: Mapping[str, Any] | None = None, **keys: Any
     return cfgmod.resolve(config, [_override(k, v) for k, v in items.items()])
 
 
-def train(config: str, overrides: Mapping[str, Any] | None = None, *, run_dir: str | None = None,
+def train_run(config: str, overrides: Mapping[str, Any] | None = None, *, run_dir: str | None = None,
           log: Callable[[str], None] = print, **keys: Any) -> runs_io.Run:
     """Train ``config`` (see :func:`resolve`) in this process: every seed as one program, written to
     ``run_dir`` (default ``<out_dir>/<name>-<UTC timestamp>``, as the command writes it), progress
