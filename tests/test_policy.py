@@ -229,22 +229,39 @@ def test_load_policy_of_sweep_points_uses_each_points_value(policy_runs):
 
 def checkpoint_actor_by_structure(res, step: int, lane: int):
     """Lane ``lane``'s actor at checkpoint ``step``, its leaves found from the training state's own
-    tree structure (the paths ``.agent.actor…`` of ``init_fn``'s output, as train.py saves it)."""
+    tree structure (the paths ``.agent.actor…`` of ``init_fn``'s output, as train.py saves it: the
+    tuple (state, evaluations), each leaf under its path's names, orbax's nested mapping)."""
     import orbax.checkpoint as ocp
 
     prog = programs.programs(res.cfg)
     template = jax.eval_shape(prog.init_fn, *programs.lanes(res.cfg, prog, None).init_args)
-    keys, names = [], []
-    for i, (path, _) in enumerate(jax.tree_util.tree_flatten_with_path(template)[0]):
+    paths = []
+    for path, _ in jax.tree_util.tree_flatten_with_path(template)[0]:
         if getattr(path[0], "name", None) == "agent" and getattr(path[1], "name", None) == "actor":
-            keys.append(f"{i:05d}")
-            names.append("/".join(str(p.key) for p in path[2:]))
+            paths.append(["0", "agent", "actor", *(str(p.key) for p in path[2:])])
     item = os.path.join(res.run_dir, "checkpoints", str(step), "default")
     meta = ocp.StandardCheckpointer().metadata(item).item_metadata.tree
+
+    def nested(leaf):
+        out = {}
+        for parts in paths:
+            node, m = out, meta
+            for part in parts[:-1]:
+                node, m = node.setdefault(part, {}), m[part]
+            node[parts[-1]] = leaf(m[parts[-1]])
+        return out
+
     out = ocp.PyTreeCheckpointer().restore(item, args=ocp.args.PyTreeRestore(
-        item={k: np.zeros(meta[k].shape, meta[k].dtype) for k in keys},
-        restore_args={k: ocp.RestoreArgs(restore_type=np.ndarray) for k in keys}, partial_restore=True))
-    return unflatten({n: np.asarray(out[k])[lane] for n, k in zip(names, keys)})
+        item=nested(lambda m: np.zeros(m.shape, m.dtype)),
+        restore_args=nested(lambda m: ocp.RestoreArgs(restore_type=np.ndarray)), partial_restore=True))
+
+    leaves = {}
+    for parts in paths:
+        node = out
+        for part in parts:
+            node = node[part]
+        leaves["/".join(parts[3:])] = np.asarray(node)[lane]
+    return unflatten(leaves)
 
 
 def test_load_policy_at_a_checkpoint_step(policy_runs):

@@ -247,12 +247,12 @@ def _restore(ckpt: Checkpointer, store: ReplayStore, step: int, prog: Programs, 
     (the whole buffer inside), from the checkpoint itself."""
     full = jax.eval_shape(prog.init_fn, *lanes.init_args)
     # the evaluations as saved: a run whose budget grew since has fewer rows than ``evals`` now
-    saved_shape = ckpt.stored_shape(step, f"{len(jax.tree.leaves((full, evals.saved()))) - 1:05d}")
+    saved_shape = ckpt.stored_shapes(step, (full, evals.saved()))[-1]
     saved_evals = np.zeros(saved_shape, evals.saved().dtype)
     if saved_shape[0] > evals.returns.shape[0] or saved_shape[1:] != evals.returns.shape[1:]:
         raise ConfigError(f"checkpoint {step} holds evaluations {saved_shape}, this run's budget "
                           f"{evals.returns.shape}: a budget can only grow")
-    whole = ckpt.stored_keys(step) == Checkpointer.keys_of((full, saved_evals))
+    whole = ckpt.holds(step, (full, saved_evals))
     template = ((full if whole else _without_replay(full)), saved_evals)
     shardings = None
     if lanes.sharding is not None:  # the lanes straight onto their devices; the evaluations whole on each
