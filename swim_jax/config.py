@@ -27,6 +27,7 @@ from swim_jax.agents.base import replace_fields
 from swim_jax.agents.td3 import TD3Config
 from swim_jax.activations import ACTIVATIONS, learnable_activations, validate_params
 from swim_jax.io import provenance, tensorboard_log
+from swim_jax.io.schedule import Schedule
 
 
 def locate_config_dir() -> str:
@@ -507,6 +508,11 @@ def resolve(config: str | None, overrides: list[str], config_dir: str = CONFIG_D
     if not cfg.name:
         cfg = dataclasses.replace(cfg, name=os.path.basename(config)[:-5] if config and config.endswith(".yaml") else (config or "run"))
     return validate(cfg)
+
+
+def schedule(cfg: Config) -> "Schedule":
+    """The run's schedule of evaluations, chunks and checkpoints (swim_jax/io/schedule.py)."""
+    return Schedule(cfg.total_steps, cfg.eval_freq)
 
 
 def read_run_config(run_dir: str, overrides: list[str] = ()) -> tuple[dict, Config]:

@@ -18,7 +18,7 @@ from swim_jax.bench.activations import main_rsqrt
 def test_unknown_benchmark_exits_2_with_valid_choices(capsys):
     assert bench.main(["bogus"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert err == ["swim_jax.bench: unknown benchmark 'bogus'; valid: activations, rsqrt, envs, train, roofline, processes, study, profile, checkpoint, startup"]
+    assert err == ["swim_jax.bench: unknown benchmark 'bogus'; valid: activations, rsqrt, envs, train, roofline, sgemm, processes, study, profile, checkpoint, startup"]
 
 
 @pytest.mark.parametrize(

@@ -49,6 +49,7 @@ from typing import Callable
 import numpy as np
 
 from swim_jax.io import cli_parser
+from swim_jax.io.schedule import Schedule
 from swim_jax.analysis import stats
 from swim_jax.policy.policy import Policy, PolicyError, RunPolicies, load_policy, make_gymnasium, run_folders, run_policies
 
@@ -87,9 +88,10 @@ def our_evaluation(run: RunPolicies, seed_pos: int, step: int) -> tuple[np.ndarr
     """(episode returns, mean) of our own evaluation of seed position ``seed_pos`` at ``step``, from
     ``evaluations_episodes.npy`` (else the mean alone from ``evaluations.npy``); (None, None) when
     the run has not recorded that evaluation."""
-    if step % run.eval_freq:
+    try:
+        j = Schedule(run.total_steps, run.eval_freq).eval_index(step)
+    except ValueError:
         return None, None
-    j = step // run.eval_freq
     for name in ("evaluations_episodes.npy", "evaluations.npy"):
         path = os.path.join(run.path, name)
         if not os.path.isfile(path):

@@ -43,6 +43,7 @@ import numpy as np
 import yaml
 
 from swim_jax.io import learning_log, provenance
+from swim_jax.io.schedule import STEPS_FILE, Schedule
 from swim_jax.activations import ACTIVATIONS, ActivationSetting, label_activation, parameter_defaults
 from swim_jax.agents.base import DEFAULT_KIND
 from swim_jax.agents.registry import learning_panels
@@ -93,7 +94,7 @@ class Run:
     @property
     def steps(self) -> np.ndarray:
         """The env step of each evaluation (evaluation i at i · eval_freq)."""
-        return np.arange(self.returns.shape[0], dtype=np.int64) * self.eval_freq
+        return Schedule(self.total_steps, self.eval_freq).eval_steps(self.returns.shape[0])
 
     @property
     def expected_evals(self) -> int:
@@ -184,15 +185,17 @@ def load_run(path: str, at_step: int | None = None) -> Run:
     if total_steps % eval_freq:
         raise RunError(f"{cfg_path}: total_steps={total_steps} is not a multiple of eval_freq={eval_freq} "
                        f"(swim_jax.run.train evaluates every eval_freq steps up to total_steps, so it must divide it)")
-    returns = _read_returns(ev_path, 1 + total_steps // eval_freq, seeds)
+    plan = Schedule(total_steps, eval_freq)
+    returns = _read_returns(ev_path, plan.n_evals, seeds)
+    _check_steps(path, plan, returns.shape[0])
     metrics = load_metrics(path, eval_freq, total_steps, [first_seed + i for i in range(seeds)])
     if at_step is not None:
         if at_step <= 0 or at_step % eval_freq or at_step > total_steps:
             raise RunError(f"{path}: --at-step {at_step} is not an evaluation step of this run (a multiple of "
                            f"eval_freq={eval_freq} in 1..total_steps={total_steps})")
-        n = 1 + at_step // eval_freq
+        n = 1 + plan.eval_index(at_step)
         if returns.shape[0] < n:
-            raise RunError(f"{path}: has reached step {(returns.shape[0] - 1) * eval_freq}, not --at-step {at_step}")
+            raise RunError(f"{path}: has reached step {plan.eval_step(returns.shape[0] - 1)}, not --at-step {at_step}")
         returns, total_steps = returns[:n], at_step
         if metrics is not None:
             metrics = LearningMetrics(metrics.steps[: n - 1], {c: v[: n - 1] for c, v in metrics.values.items()})
@@ -204,6 +207,21 @@ def load_run(path: str, at_step: int | None = None) -> Run:
         returns=returns, metrics=metrics,
         setting=setting, sweep_suffix=suffix, matmul_dtype=read_matmul_dtype(path, cfg),
     )
+
+
+def _check_steps(path: str, plan: Schedule, n: int) -> None:
+    """A run folder's ``evaluation_steps.npy`` (written since 2026-12-06) must be the schedule's steps
+    of its ``n`` evaluations; :class:`RunError` otherwise (older folders have none: the schedule's)."""
+    file = os.path.join(path, STEPS_FILE)
+    if not os.path.isfile(file):
+        return
+    try:
+        steps = np.load(file, allow_pickle=False)
+    except (ValueError, OSError, EOFError) as e:
+        raise RunError(f"{file}: unreadable .npy ({_one_line(e)})") from None
+    if steps.shape != (n,) or not np.array_equal(steps, plan.eval_steps(n)):
+        raise RunError(f"{file}: steps {steps.tolist()[:4]}... do not match config.yaml's schedule "
+                       f"(evaluation i at i · eval_freq={plan.eval_freq}, {n} evaluations)")
 
 
 def read_matmul_dtype(path: str, cfg: dict) -> str:
@@ -301,7 +319,7 @@ def load_metrics(path: str, eval_freq: int, total_steps: int, seeds: list[int]) 
         seen.add((step, seed))
         for c in METRIC_COLUMNS:
             values[c][step // eval_freq - 1, column[seed]] = m[c][r]
-    return LearningMetrics(np.arange(1, n + 1, dtype=np.int64) * eval_freq, values)
+    return LearningMetrics(Schedule(n * eval_freq, eval_freq).chunk_ends(), values)
 
 
 def group_runs(runs: list[Run], allow_incomplete: bool = False, mixed_precision: bool = False) -> dict[str, EnvGroup]:
@@ -430,7 +448,7 @@ def _pool(env: str, act: str, runs: list[Run], n: int, eval_freq: int) -> Curves
                                f"of base seed {sid[0]} (the same seed would be counted twice)")
             owner[sid] = r.path
     returns = np.concatenate([r.returns[:n] for r in runs], axis=1)
-    steps = np.arange(n, dtype=np.int64) * eval_freq
+    steps = Schedule(n * eval_freq, eval_freq).eval_steps(n)
     return Curves(env, act, steps, returns, [r.path for r in runs], _pool_metrics(runs, n - 1, eval_freq),
                   [r.path for r in runs if r.metrics is None], runs[0].setting, runs[0].sweep_suffix,
                   sorted({r.matmul_dtype for r in runs}),
@@ -450,7 +468,7 @@ def _pool_metrics(runs: list[Run], n_chunks: int, eval_freq: int) -> LearningMet
         return out
 
     values = {c: np.concatenate([rows(m.values[c]) for m in have], axis=1) for c in METRIC_COLUMNS}
-    return LearningMetrics(np.arange(1, n_chunks + 1, dtype=np.int64) * eval_freq, values)
+    return LearningMetrics(Schedule(n_chunks * eval_freq, eval_freq).chunk_ends(), values)
 
 
 def _cross_activation_differences(by_act: dict[str, list[Run]]) -> list[str]:

@@ -33,7 +33,7 @@ def tidy_rows(runs: list[Run]) -> list[dict]:
                  "activation_params": params, "label": r.activation, "precision": numerics(r)}
         for j, (_, seed) in enumerate(r.seed_ids):
             for i in range(r.returns.shape[0]):
-                rows.append({**fixed, "seed": int(seed), "step": int(i * r.eval_freq), "return": float(r.returns[i, j])})
+                rows.append({**fixed, "seed": int(seed), "step": int(r.steps[i]), "return": float(r.returns[i, j])})
     return rows
 
 

@@ -96,7 +96,7 @@ def main(argv: list[str] | None = None) -> int:
         _parser().error(str(e))
     states = filled_state(cfg, args.fill)
     lanes = states.buffer.data.reward.shape[0]
-    evals = np.zeros((cfg.total_steps // cfg.eval_freq + 1, lanes, cfg.eval_episodes), np.float32)
+    evals = np.zeros((cfgmod.schedule(cfg).n_evals, lanes, cfg.eval_episodes), np.float32)
 
     class Evals:  # train._save's view of the evaluations
         def saved(self):

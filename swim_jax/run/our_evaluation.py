@@ -48,5 +48,5 @@ def our_episodes(run_dir: str, episodes: int) -> np.ndarray:
     evaluate = jax.jit(loop.make_eval_fn(agent, eval_env, episodes, cfg.env.max_episode_steps))
     seed_ids = jnp.arange(cfg.first_seed, cfg.first_seed + cfg.seeds, dtype=jnp.int32)
     keys = jax.vmap(lambda i: loop.seed_keys(cfg.seed, i)[3])(seed_ids)
-    index = jnp.int32(cfg.total_steps // cfg.eval_freq)
+    index = jnp.int32(cfgmod.schedule(cfg).n_chunks)  # the final evaluation's
     return np.asarray(evaluate(params, keys, index), np.float64)

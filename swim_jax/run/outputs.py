@@ -22,6 +22,7 @@ import yaml
 from swim_jax import config as cfgmod
 from swim_jax.run import learned_params
 from swim_jax.io import learning_log, tensorboard_log
+from swim_jax.io.schedule import STEPS_FILE
 from swim_jax.config import Config
 from swim_jax.placement.distributed import to_host
 from swim_jax.placement.layout import LaneLayout
@@ -51,10 +52,13 @@ def point_outputs(cfg: Config, run_dir: str, points) -> list[tuple[str, Config]]
 
 
 def write_evaluations(run_dir: str, cfg: Config, evals: np.ndarray, n_done: int) -> None:
-    """Write the first ``n_done`` evaluations of the real seeds (CSV + .npy), overwriting."""
+    """Write the first ``n_done`` evaluations of the real seeds (CSV + .npy, and their steps:
+    ``evaluation_steps.npy``), overwriting."""
     ev = evals[:n_done, : cfg.seeds]
     means = ev.mean(axis=2)  # [n, seeds]
+    steps = cfgmod.schedule(cfg).eval_steps(n_done)
     np.save(os.path.join(run_dir, "evaluations.npy"), means)
+    np.save(os.path.join(run_dir, STEPS_FILE), steps)
     np.save(os.path.join(run_dir, "evaluations_episodes.npy"), ev)
     for i in range(cfg.seeds):
         np.save(os.path.join(run_dir, f"evaluations_seed{cfg.first_seed + i}.npy"), means[:, i])
@@ -62,7 +66,7 @@ def write_evaluations(run_dir: str, cfg: Config, evals: np.ndarray, n_done: int)
         cols = [f"seed_{cfg.first_seed + i}" for i in range(cfg.seeds)]
         f.write(",".join(["step", *cols, "mean", "std"]) + "\n")
         for j in range(n_done):
-            row = [str(j * cfg.eval_freq), *(repr(float(x)) for x in means[j]),
+            row = [str(steps[j]), *(repr(float(x)) for x in means[j]),
                    repr(float(means[j].mean())), repr(float(means[j].std()))]
             f.write(",".join(row) + "\n")
 
@@ -83,7 +87,7 @@ def write_sweep_table(run_dir: str, cfg: Config, points, evals: np.ndarray) -> N
             best = int(np.argmax(curve))
             w.writerow([cfgmod.point_label(point), *(repr(point[k]) for k in keys),
                         repr(float(curve[-1])), repr(float(m[-1].std())), repr(float(curve[best])),
-                        str(best * cfg.eval_freq)])
+                        str(cfgmod.schedule(cfg).eval_step(best))])
 
 
 def flat_params(params) -> dict[str, np.ndarray]:

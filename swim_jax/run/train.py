@@ -10,7 +10,8 @@ per call; this module only loops over those chunks: evaluation (step 0 and after
 Outputs in ``<out_dir>/<name>-<UTC timestamp>/``:
   config.yaml                  the resolved config (what ``--resume`` reloads)
   evaluations.csv              step, seed_<i> (mean return of the eval episodes), mean, std
-  evaluations.npy              [n_evals, seeds] mean returns; evaluations_seed<i>.npy: [n_evals]
+  evaluations.npy              [n_evals, seeds] mean returns; evaluations_seed<i>.npy: [n_evals];
+                               evaluation_steps.npy: [n_evals] their steps (swim_jax/io/schedule.py)
   evaluations_episodes.npy     [n_evals, seeds, eval_episodes] every episode's return
   timing.json                  wall time, env-steps/s (aggregate and per seed), compile counts
   checkpoints/<step>/          orbax: the whole training state (last ``keep_checkpoints``)
@@ -183,9 +184,10 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
         states = _initial_states(cfg, prog, lanes, folder, evals, say)
         if resume:
             log(f"no checkpoint in {run_dir}; starting from step 0")
-    start = 0 if restored is None else restored // cfg.eval_freq
+    plan = cfgmod.schedule(cfg)
+    start = 0 if restored is None else plan.chunk_of_step(restored)
     folder.evaluations(evals.returns, start + 1)
-    n_chunks = cfg.total_steps // cfg.eval_freq
+    n_chunks = plan.n_chunks
     if start < n_chunks:  # (said before the split: with lane groups, splitting compiles their executables)
         say(f"compiling the training program and running its first {cfg.eval_freq} steps "
             f"(compiles take seconds to minutes on a CPU; cached for the next run)")
@@ -199,7 +201,7 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
         states = stepper.join(parts)
         bad = to_host(states.bad_step)  # waits for the chunk
         dt = clock.trained(time.time() - t0, cfg.eval_freq)
-        step = (c + 1) * cfg.eval_freq
+        step = plan.eval_step(c + 1)
         _stop_if_non_finite(layout, bad[: layout.real], ckpt, run_dir, prog.agent.CHECKED)
         say.doing(f"evaluating at step {step} ({cfg.eval_episodes} episodes per lane)")
         folder.evaluation(c + 1, evals.run(states, c + 1), states.agent)
@@ -288,7 +290,7 @@ class _Evaluations:
     the seconds spent computing them."""
 
     def __init__(self, cfg: Config, prog: Programs, lanes: Lanes):
-        n_evals = cfg.total_steps // cfg.eval_freq + 1  # step 0 and after every chunk
+        n_evals = cfgmod.schedule(cfg).n_evals  # step 0 and after every chunk
         self.returns = np.full((n_evals, lanes.count, cfg.eval_episodes), np.nan)
         self.seconds = 0.0
         self._eval_fn, self._sweep_args = prog.eval_fn, lanes.sweep_args
@@ -368,7 +370,7 @@ class ETA:
 def _chunks_left(cfg: Config, done: int) -> tuple[int, int]:
     """(warm-up chunks, learning chunks) after the first ``done`` chunks; a chunk is learning when
     any of its steps is (its end step > ``learning_starts``)."""
-    n = cfg.total_steps // cfg.eval_freq
+    n = cfgmod.schedule(cfg).n_chunks
     warm = min(n, cfg.learning_starts // cfg.eval_freq)
     return max(0, warm - done), n - max(done, warm)
 
