@@ -107,3 +107,18 @@ def test_pairs_that_differ_beyond_the_compared_keys_or_bad_input_are_refused(set
     (tmp_path / "full" / "keep.txt").write_text("x")
     assert cell_pairs.main([a, b, "--out", str(tmp_path / "full")]) == 2
     assert "not an empty folder" in capsys.readouterr().err and os.listdir(tmp_path / "full") == ["keep.txt"]
+
+
+def test_cells_still_short_of_the_step_are_left_out_and_listed(sets, tmp_path):
+    """A study in progress: a cell whose runs have not evaluated at --at-step yet is not compared
+    (listed as such); with no cell there at all, one line."""
+    a, b = sets
+    short = tmp_path / "short"
+    write_cell(short, "walker_swim", WALKER_A[:2], matmul="full", recorded="float32")  # at step 100 of 400
+    write_cell(short, "hopper_swim", HOPPER_A, env="Hopper-v5", matmul="full", recorded="float32")
+    pairs, only_a, _ = cell_pairs.compare_sets(str(short), b, at_step=300, n_boot=200)
+    assert [p.name for p in pairs] == ["hopper_swim"] and only_a == ["walker_swim (not at step 300 yet)"]
+    alone = tmp_path / "alone"
+    write_cell(alone, "walker_swim", WALKER_A[:2], matmul="full", recorded="float32")
+    with pytest.raises(cell_pairs.CompareError, match="no cell of both sets has reached step 300"):
+        cell_pairs.compare_sets(str(alone), b, at_step=300, n_boot=200)

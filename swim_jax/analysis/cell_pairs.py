@@ -104,14 +104,33 @@ def sentence(p: Pair, b_label: str) -> str:
 
 def compare_sets(a_dir: str, b_dir: str, at_step: int | None = None, differ: tuple[str, ...] = DIFFER,
                  n_boot: int = 10_000, seed: int = 0) -> tuple[list[Pair], list[str], list[str]]:
-    """(pairs in name order, cells only in A, cells only in B); :class:`CompareError` on bad input."""
+    """(pairs in name order, cells only in A, cells only in B); with ``at_step``, a cell that has not
+    evaluated at that step in both sets (a study in progress) is left out and listed with A's.
+    :class:`CompareError` on bad input."""
     ca, cb = cells(a_dir), cells(b_dir)
     names = [n for n in ca if n in cb]
     if not names:
         raise CompareError(f"no cell name is in both {a_dir} ({', '.join(ca) or 'none'}) and {b_dir} "
                            f"({', '.join(cb) or 'none'})")
-    pairs = [pair(n, ca[n], cb[n], at_step, differ, n_boot, seed) for n in names]
-    return pairs, [n for n in ca if n not in cb], [n for n in cb if n not in ca]
+    pairs, short = [], []
+    for n in names:
+        if at_step is not None and not all(_reached(p, at_step) for p in (ca[n], cb[n])):
+            short.append(n)  # (a study in progress: the cell has not evaluated at that step yet)
+            continue
+        pairs.append(pair(n, ca[n], cb[n], at_step, differ, n_boot, seed))
+    if not pairs:
+        raise CompareError(f"no cell of both sets has reached step {at_step} ({', '.join(short)} have not)")
+    return pairs, [n for n in ca if n not in cb] + [f"{n} (not at step {at_step} yet)" for n in short], \
+        [n for n in cb if n not in ca]
+
+
+def _reached(path: str, step: int) -> bool:
+    """Whether the run folder at ``path`` has evaluated at ``step`` (its evaluations.npy is long enough)."""
+    try:
+        run = load_run(path)
+    except RunError:
+        return False
+    return run.returns.shape[0] > step // run.eval_freq
 
 
 def render(pairs: list[Pair], only_a: list[str], only_b: list[str], command: str) -> tuple[str, dict]:
