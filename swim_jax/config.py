@@ -515,6 +515,32 @@ def schedule(cfg: Config) -> "Schedule":
     return Schedule(cfg.total_steps, cfg.eval_freq)
 
 
+# config keys a run folder's config.yaml may differ in from the config that continues it (where and
+# how the run is placed, not what it computes)
+PLACEMENT_KEYS = frozenset({"out_dir", "keep_checkpoints", "shard_lanes", "host_devices", "lane_groups",
+                            "compilation_cache", "progress_steps"})
+
+
+def first_difference(want: Config, run_dir: str, ignored: frozenset = PLACEMENT_KEYS) -> tuple[str, Any, Any] | None:
+    """``(key, recorded, wanted)`` of the first dotted key (sorted) in which ``want`` differs from the
+    config.yaml of the run folder ``run_dir``, or None when ``want`` continues that run. Not a
+    difference: the top-level keys in ``ignored``; ``env.backend=auto`` in ``want`` (the folder
+    recorded what auto chose); an old folder's ``matmul_dtype: auto`` (read as what its run
+    multiplied in, :func:`read_run_config`); a ``total_steps`` above the folder's (the budget grows)."""
+    path = os.path.join(run_dir, "config.yaml")
+    recorded = load_yaml_mapping(path, path, "a config mapping")
+    recorded = {**recorded, "matmul_dtype": provenance.config_matmul_dtype(run_dir, recorded)}
+    wanted = to_dict(want)
+    if wanted["env"]["backend"] == "auto":
+        wanted["env"]["backend"] = (recorded.get("env") or {}).get("backend", "auto")
+    if isinstance(recorded.get("total_steps"), int) and wanted["total_steps"] > recorded["total_steps"]:
+        wanted["total_steps"] = recorded["total_steps"]  # a grown budget: a resume continues to it
+    flat_want, flat_recorded = (_flatten_paths({k: v for k, v in d.items() if k not in ignored})
+                                for d in (wanted, recorded))
+    diff = sorted(k for k in flat_want.keys() | flat_recorded.keys() if flat_want.get(k) != flat_recorded.get(k))
+    return (diff[0], flat_recorded.get(diff[0]), flat_want.get(diff[0])) if diff else None
+
+
 def read_run_config(run_dir: str, overrides: list[str] = ()) -> tuple[dict, Config]:
     """(the mapping in ``run_dir``'s config.yaml, the validated config a run of it builds with
     ``overrides`` applied). An old folder's ``matmul_dtype: auto`` reads as what that run multiplied in

@@ -93,3 +93,15 @@ def test_the_command_modules_and_the_api_do_not_shadow_each_other():
 
     assert hasattr(door, "main") and door.__name__ == "swim_jax.train"
     assert swim_jax.train_run is api.train_run and swim_jax.load_runs is api.load_runs
+
+
+def test_a_run_folder_is_continued_only_with_its_own_config(snippet):
+    """train_run on an existing run folder with another config: one line naming the first key that
+    differs, before anything is trained or written (the budget alone may grow)."""
+    ns, _, out = snippet
+    run = ns["run"]
+    before = {f: os.path.getmtime(os.path.join(run.path, f)) for f in ("config.yaml", "evaluations.npy")}
+    with pytest.raises(ConfigError, match=r"was started with agent\.activation\.k=0\.75, not 0\.5: a run continues"):
+        api.train_run("hopper_swim", {**TINY, "agent.activation.k": 0.5}, seeds=2, out_dir=str(out), run_dir=run.path,
+                      log=lambda s: None)
+    assert before == {f: os.path.getmtime(os.path.join(run.path, f)) for f in before}

@@ -41,8 +41,9 @@ def train_run(config: str, overrides: Mapping[str, Any] | None = None, *, run_di
     """Train ``config`` (see :func:`resolve`) in this process: every seed as one program, written to
     ``run_dir`` (default ``<out_dir>/<name>-<UTC timestamp>``, as the command writes it), progress
     lines to ``log``. Returns the finished run folder read back (:func:`load_runs`). A run folder
-    that exists is resumed from its newest checkpoint (pass the same config, or a larger
-    ``total_steps`` to grow its budget). Raises ``ConfigError`` on bad input and
+    that exists is resumed from its newest checkpoint: the config must be the one it started with
+    (``swim_jax.config.first_difference``), but for a larger ``total_steps``, which grows its
+    budget; else ``ConfigError`` naming the first difference. Raises ``ConfigError`` on bad input and
     ``swim_jax.run.train.NonFiniteError`` when training diverges."""
     import os
 
@@ -52,7 +53,11 @@ def train_run(config: str, overrides: Mapping[str, Any] | None = None, *, run_di
 
     cfg = resolve(config, overrides, **keys)
     resume = run_dir is not None and os.path.isfile(os.path.join(run_dir, "config.yaml"))
-    if resume:
+    if resume:  # the same run, or its budget grown: anything else is one line, as the command says it
+        diff = cfgmod.first_difference(cfg, run_dir, cfgmod.PLACEMENT_KEYS | {"name"})
+        if diff:
+            raise cfgmod.ConfigError(f"{run_dir} was started with {diff[0]}={diff[1]!r}, not {diff[2]!r}: a run "
+                                     "continues with the config it started with (only total_steps may grow)")
         cfg = train_module.resume_config(run_dir, [_override("total_steps", cfg.total_steps)])
     host_devices = cfg.host_devices or auto_host_devices(cfg)
     if host_devices and not backends_started():  # (once JAX has started, its devices are what they are)

@@ -55,9 +55,6 @@ from swim_jax.config import Config, ConfigError
 
 STUDY_KEYS = ("name", "out_dir", "envs", "activations", "configs", "seeds", "total_steps", "overrides", "grid")
 SET_BY_STUDY = ("name", "out_dir", "sweep", "local_processes", "seeds", "total_steps")  # not in overrides/grid
-# config keys a cell's recorded config.yaml may differ in from the study's (where and how, not what)
-PLACEMENT_KEYS = frozenset({"out_dir", "keep_checkpoints", "shard_lanes", "host_devices", "lane_groups",
-                            "compilation_cache", "progress_steps"})
 LOCK_FILE = "study.lock"
 LOG_FILE = "train.log"
 # cells run at once when --parallel is not given: one cell on every core was measured fastest in the
@@ -236,34 +233,18 @@ def _check_poolable(path: str, cells: list[Cell]) -> None:
         seen[key] = c.name
 
 
-def _comparable(cfg: dict) -> dict:
-    return {k: v for k, v in cfg.items() if k not in PLACEMENT_KEYS}
-
-
 def _check_existing(c: Cell) -> None:
-    """Refuse a cell folder whose config.yaml is not this cell's (the study file or out_dir changed).
-    Three differences are the same cell: ``env.backend=auto`` in the study (the folder recorded what it
-    chose), an old folder's ``matmul_dtype: auto`` (read as what its run multiplied in), and a
-    study ``total_steps`` above the folder's (the budget grows: the cell resumes to it)."""
-    path = os.path.join(c.run_dir, "config.yaml")
-    if not os.path.isfile(path):
+    """Refuse a cell folder whose config.yaml is not this cell's (the study file or out_dir changed);
+    what does not count as a change: :func:`swim_jax.config.first_difference` (a raised total_steps
+    among them: the cell resumes to it)."""
+    if not os.path.isfile(os.path.join(c.run_dir, "config.yaml")):
         return
-    with open(path) as f:
-        recorded = yaml.safe_load(f) or {}
-    recorded = {**recorded, "matmul_dtype": provenance.config_matmul_dtype(c.run_dir, recorded)}
-    want = cfgmod.to_dict(c.cfg)
-    if want["env"]["backend"] == "auto":  # the cell's run recorded what auto chose where it started
-        want["env"]["backend"] = (recorded.get("env") or {}).get("backend", "auto")
-    if isinstance(recorded.get("total_steps"), int) and want["total_steps"] > recorded["total_steps"]:
-        want["total_steps"] = recorded["total_steps"]  # a grown budget: run_cell resumes the cell to it
-    flat_want, flat_recorded = cfgmod._flatten_paths(_comparable(want)), cfgmod._flatten_paths(_comparable(recorded))
-    diff = sorted(k for k in flat_want.keys() | flat_recorded.keys() if flat_want.get(k) != flat_recorded.get(k))
+    diff = cfgmod.first_difference(c.cfg, c.run_dir)
     if diff:
-        k = diff[0]
+        k, recorded, wanted = diff
         hint = ("; a budget can only grow" if k == "total_steps" else "")
-        raise StudyError(f"cell {c.name}: {path} was started with {k}={flat_recorded.get(k)!r}, the "
-                         f"study now gives {k}={flat_want.get(k)!r}{hint}; restore the study file or "
-                         "use another --out-dir")
+        raise StudyError(f"cell {c.name}: {os.path.join(c.run_dir, 'config.yaml')} was started with {k}={recorded!r}, "
+                         f"the study now gives {k}={wanted!r}{hint}; restore the study file or use another --out-dir")
 
 
 # ------------------------------------------------------------------------------------------------
