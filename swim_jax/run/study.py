@@ -237,7 +237,7 @@ def _check_existing(c: Cell) -> None:
     """Refuse a cell folder whose config.yaml is not this cell's (the study file or out_dir changed);
     what does not count as a change: :func:`swim_jax.config.first_difference` (a raised total_steps
     among them: the cell resumes to it)."""
-    if not os.path.isfile(os.path.join(c.run_dir, "config.yaml")):
+    if not started(c):
         return
     diff = cfgmod.first_difference(c.cfg, c.run_dir)
     if diff:
@@ -344,7 +344,7 @@ def cell_state(c: Cell) -> CellState:
     """The :class:`CellState` of ``c`` read from its folder (nothing is written)."""
     from swim_jax.io.checkpoint import latest_complete_step
 
-    if not os.path.isdir(c.run_dir) or not os.path.isfile(os.path.join(c.run_dir, "config.yaml")):
+    if not started(c):
         return CellState(c, "running" if is_locked(c.run_dir) else "left", 0, None, None, None)
     done = _is_done(c)
     last = _last_evaluation(c.run_dir)
@@ -418,7 +418,7 @@ def run_cell(c: Cell, log: Callable[[str], None] = print) -> int:
         if _is_done(c):
             log(f"{c.name}: done; skipped")
             return 0
-        resume = os.path.isfile(os.path.join(c.run_dir, "config.yaml"))
+        resume = started(c)
         log(f"{c.name}: {'resuming' if resume else 'starting'} in {c.run_dir}")
         cfg = _recorded_backend(c) if resume else c.cfg
         try:
@@ -524,7 +524,7 @@ def study_section(study: Study, states: list[CellState], trained: Study | None =
         cpus = sorted({e.get("cpu", "?") for e in prov})
         commits = sorted({(e.get("git") or {}).get("commit", "?")[:12] for e in prov})
         lines.append(f"| {s.cell.name} | {s.state} | {s.step} | {fmt_duration(s.wall_s) if s.wall_s else ''} | "
-                     f"{'; '.join(cpus)} | {_matmul_dtype(s.cell.run_dir, read_matmul_dtype)} | {', '.join(commits)} |")
+                     f"{'; '.join(cpus)} | {read_matmul_dtype(s.cell.run_dir, cfgmod.to_dict(s.cell.cfg)) if started(s.cell) else ''} | {', '.join(commits)} |")
     lines += ["", f"Code: {', '.join(_git_commits(done)) or 'unknown'} (git commit of every start or resume, "
               "provenance.json in each cell).", "",
               "Commands (each cell is resumable; the first runs them all):", "", "```",
@@ -535,13 +535,9 @@ def study_section(study: Study, states: list[CellState], trained: Study | None =
     return "\n".join(lines)
 
 
-def _matmul_dtype(run_dir: str, read) -> str:
-    """The cell's matmul products as recorded (``read``: runs_io.read_matmul_dtype), '' before it starts."""
-    path = os.path.join(run_dir, "config.yaml")
-    if not os.path.isfile(path):
-        return ""
-    with open(path) as f:
-        return read(run_dir, yaml.safe_load(f) or {})
+def started(c: Cell) -> bool:
+    """Whether cell ``c`` has a run folder with its config.yaml (its run has started)."""
+    return os.path.isfile(os.path.join(c.run_dir, "config.yaml"))
 
 
 def _reached(c: Cell, step: int) -> bool:
