@@ -34,7 +34,7 @@ import os
 import shutil
 import sys
 import tempfile
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import yaml
@@ -193,6 +193,7 @@ class Numbers:
     series: dict  # swim_jax.analysis.report_figure.parameter_series: return vs activation parameter
     agg: aggregate.Aggregates | None = None  # across envs (rliable's metrics); None with fewer than 2 envs
     agg_refused: str | None = None  # why the envs were not aggregated (their runs' numerics differ)
+    numerics: dict = field(default_factory=dict)  # :func:`by_numerics_of` the groups: {numerics: [envs]}
 
 
 def _pm(m: float, s: float, nd: int = 2) -> str:
@@ -229,7 +230,7 @@ def render_markdown(nums: Numbers, score: str, n_boot: int, boot_seed: int, comm
         L += _statistics_section(nums.comps, n_boot, boot_seed)
         L += _verdict_section(nums.comps, score, nums.groups)
     if nums.agg is not None:
-        L += _aggregate_section(nums.agg, nums.groups, n_boot, boot_seed, len(by_numerics_of(nums.groups)) > 1)
+        L += _aggregate_section(nums.agg, n_boot, boot_seed, nums.numerics)
     elif nums.agg_refused:
         L += ["## Across envs: normalized scores (rliable's aggregates)", "", f"Not computed: {nums.agg_refused}.", ""]
     if nums.t3:
@@ -367,10 +368,10 @@ def by_numerics_of(groups: dict[str, EnvGroup]) -> dict[str, list[str]]:
     return out
 
 
-def _aggregate_section(agg: aggregate.Aggregates, groups: dict[str, EnvGroup], n_boot: int, boot_seed: int,
-                       mixed: bool = False) -> list[str]:
+def _aggregate_section(agg: aggregate.Aggregates, n_boot: int, boot_seed: int, numerics: dict) -> list[str]:
     """Aggregates across envs on normalized scores: IQM, mean, median, optimality gap with CIs,
-    probability of improvement between every pair of labels, the normalization and the figure."""
+    probability of improvement between every pair of labels, the normalization and the figure;
+    marked when ``numerics`` (``{numerics: [envs]}``) has more than one entry."""
     L = ["## Across envs: normalized scores (rliable's aggregates)", "",
          f"Per-seed **{agg.score}** scores normalized per env, (score − random) / (reference − random): 0 is a "
          "uniform random policy, 1 published TD3 at 1M steps (swim_jax/analysis/aggregate.py). 95 % CIs: "
@@ -379,9 +380,9 @@ def _aggregate_section(agg: aggregate.Aggregates, groups: dict[str, EnvGroup], n
          _md_table(["env", "random policy", "reference", "reference source"],
                    [[e, f"{aggregate.NORMALIZATION[e][0]:g}", f"{aggregate.NORMALIZATION[e][1]:g}",
                      aggregate.NORMALIZATION[e][2]] for e in agg.envs]), ""]
-    if mixed:
+    if len(numerics) > 1:
         L += [f"{MIXED_MARK} Runs of different precision or matmul products are aggregated here (--mixed-precision): "
-              + "; ".join(f"{n}: {', '.join(envs)}" for n, envs in by_numerics_of(groups).items()) + ".", ""]
+              + "; ".join(f"{n}: {', '.join(envs)}" for n, envs in numerics.items()) + ".", ""]
     rows = [[_name(a)] + [f"{p:.3f} [{lo:.3f}, {hi:.3f}]" for p, lo, hi in (agg.metrics[a][m] for m in aggregate.METRICS)]
             for a in agg.metrics]
     L += [_md_table(["label", "IQM", "mean", "median", "optimality gap"], rows), ""]
@@ -670,7 +671,7 @@ def compute(args) -> Numbers:
                    series=parameter_series(groups),
                    agg=None if agg_refused else aggregate.aggregate(per_env, args.score, reps=args.n_boot,
                                                                     seed=args.boot_seed),
-                   agg_refused=agg_refused if len(groups) > 1 else None)
+                   agg_refused=agg_refused if len(groups) > 1 else None, numerics=by_numerics)
 
 
 def _first_config(g: EnvGroup) -> dict:
