@@ -177,14 +177,45 @@ def welch_t_test(x, y) -> WelchResult:
     y = np.asarray(y, dtype=np.float64).ravel()
     if x.size < 2 or y.size < 2:
         raise ValueError("Welch's t-test needs at least 2 values per sample")
-    ax, ay = x.var(ddof=1) / x.size, y.var(ddof=1) / y.size
+    return _welch(x.mean() - y.mean(), x.var(ddof=1) / x.size, y.var(ddof=1) / y.size, x.size, y.size)
+
+
+def _welch(d, ax, ay, nx, ny) -> WelchResult:
+    """Welch's t-test of a difference ``d`` of means whose squared standard errors are ``ax``, ``ay``
+    (variance / n) over ``nx``, ``ny`` values (:func:`welch_t_test`)."""
     se2 = ax + ay
     if se2 == 0:
         nan = float("nan")
         return WelchResult(nan, nan, nan)
-    t = float((x.mean() - y.mean()) / math.sqrt(se2))
-    df = float(se2 ** 2 / (ax ** 2 / (x.size - 1) + ay ** 2 / (y.size - 1)))
+    t = float(d / math.sqrt(se2))
+    df = float(se2 ** 2 / (ax ** 2 / (nx - 1) + ay ** 2 / (ny - 1)))
     return WelchResult(t, df, student_t_two_sided_p(t, df))
+
+
+@dataclass(frozen=True)
+class WelchFromStats:
+    """mean_x − mean_y, its Welch confidence interval ``[low, high]`` and the test (:class:`WelchResult`)."""
+
+    diff: float
+    low: float
+    high: float
+    test: WelchResult
+
+
+def welch_from_stats(mean_x: float, sd_x: float, n_x: int, mean_y: float, sd_y: float, n_y: int,
+                     level: float = 0.95) -> WelchFromStats:
+    """Welch's test and ``level`` confidence interval of mean_x − mean_y from summary statistics
+    (sample standard deviations, ``ddof=1``; at least 2 values per sample), e.g. our seeds against a
+    published mean ± std over its seeds: the same formulas as :func:`welch_t_test` and
+    :func:`welch_diff_ci` with ``v/n = sd²/n``."""
+    if n_x < 2 or n_y < 2:
+        raise ValueError("Welch's t-test needs at least 2 values per sample")
+    d, ax, ay = float(mean_x - mean_y), sd_x ** 2 / n_x, sd_y ** 2 / n_y
+    test = _welch(d, ax, ay, n_x, n_y)
+    if ax + ay == 0:
+        return WelchFromStats(d, d, d, test)
+    half = student_t_quantile(0.5 + level / 2, test.df) * math.sqrt(ax + ay)
+    return WelchFromStats(d, d - half, d + half, test)
 
 
 def student_t_two_sided_p(t: float, df: float) -> float:
@@ -253,8 +284,7 @@ def welch_diff_ci(x, y, level: float = 0.95) -> tuple[float, float]:
     d = float(x.mean() - y.mean())
     if ax + ay == 0:
         return d, d
-    df = (ax + ay) ** 2 / (ax ** 2 / (x.size - 1) + ay ** 2 / (y.size - 1))
-    half = student_t_quantile(0.5 + level / 2, df) * math.sqrt(ax + ay)
+    half = student_t_quantile(0.5 + level / 2, _welch(d, ax, ay, x.size, y.size).df) * math.sqrt(ax + ay)
     return d - half, d + half
 
 

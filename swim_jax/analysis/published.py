@@ -1,0 +1,170 @@
+"""Our runs next to published curves at the same step: ``python -m swim_jax.published RUN_DIR ...
+[--at-step N]`` (docs/PUBLISHED.md says where each figure comes from and how it was measured).
+
+The curves are Tianshou's MuJoCo benchmark: thu-ml/tianshou ``examples/mujoco/benchmark/<Env>-v3/
+result.json`` at commit 63f0e9a0fb5b30ee15635b9ad41400111a187a37, TD3 and SAC, one point every 5,000
+steps: the mean over 10 seeds of each seed's mean return over 10 deterministic test episodes, and the
+population std over the seeds. Its TD3 runs the TD3 reference code's current defaults, which are
+ours; its SAC differs from ours (fixed α = 0.2, learning rate 1e-3, 10k random steps). Envs are gym v3
+(mujoco-py), ours Gymnasium v4/v5: the same tasks, not the same files.
+
+For every run (a sweep folder stands for its points): our seeds' evaluations at step N (mean, sample
+std, n), the published mean at N with its sample std (population std · √(n/(n−1))), the difference
+ours − published with Welch's 95 % CI and two-sided p from those summary statistics
+(:func:`swim_jax.analysis.stats.welch_from_stats`), and the published mean over N ± 50k (the single
+points are noisy). N defaults to each run's last evaluation. A run whose env or algorithm has no
+published curve, or a step it has not reached or the curve lacks: one line, exit 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import json
+import math
+import os
+import sys
+from dataclasses import dataclass
+
+import numpy as np
+
+from swim_jax.analysis import runs_io, stats
+from swim_jax.io import cli_parser
+
+DATA = os.path.join(os.path.dirname(__file__), "published_tianshou.json")
+SOURCE = "Tianshou (thu-ml/tianshou 63f0e9a, gym v3)"
+SEEDS = 10  # Tianshou's benchmark runs 10 seeds per curve
+WINDOW = 50_000  # the published mean over N ± WINDOW steps
+
+
+class PublishedError(ValueError):
+    """No published curve for a run, or not at the asked step; ``str(e)`` is one line."""
+
+
+@dataclass(frozen=True)
+class Anchor:
+    """A published curve's value at ``step``: mean and sample std over ``n`` seeds; ``window_mean``:
+    the mean of the curve's points within ``step ± WINDOW``."""
+
+    env: str
+    algorithm: str
+    step: int
+    mean: float
+    sd: float
+    n: int
+    window_mean: float
+
+
+@functools.lru_cache(maxsize=1)
+def _curves() -> dict:
+    with open(DATA) as f:
+        return json.load(f)["envs"]
+
+
+def published_env(env: str) -> str:
+    """The published curve's env id for one of ours (``Walker2d-v5`` → ``Walker2d-v3``)."""
+    return env.split("-")[0] + "-v3"
+
+
+def anchor(env: str, algorithm: str, step: int) -> Anchor:
+    """The published ``algorithm`` (``td3`` or ``sac``) curve of ``env`` at ``step``
+    (:class:`PublishedError` naming what exists when there is none)."""
+    curves = _curves()
+    key = published_env(env)
+    if key not in curves:
+        raise PublishedError(f"no published curve for {env}: published envs are {', '.join(sorted(curves))}")
+    points = curves[key].get(algorithm.upper())
+    if not points:
+        raise PublishedError(f"no published {algorithm} curve for {env}: published algorithms are "
+                             f"{', '.join(a.lower() for a in curves[key])}")
+    at = {int(s): (m, sd) for s, m, sd in points}
+    if step not in at:
+        raise PublishedError(f"the published {algorithm} curve of {key} has no point at step {step:,}: "
+                             f"it has every 5,000 steps up to {max(at):,}")
+    mean, pop_sd = at[step]
+    window = [m for s, (m, _) in at.items() if abs(s - step) <= WINDOW]
+    return Anchor(key, algorithm, step, float(mean), float(pop_sd) * math.sqrt(SEEDS / (SEEDS - 1)), SEEDS,
+                  float(np.mean(window)))
+
+
+def algorithm_of(run: runs_io.Run) -> str:
+    """The run's ``agent.kind`` (``td3`` when the config does not say)."""
+    return str((run.config.get("agent") or {}).get("kind", "td3"))
+
+
+def ours_at(run: runs_io.Run, step: int) -> np.ndarray:
+    """The run's seeds' evaluation returns at ``step`` (:class:`PublishedError` if it has none there)."""
+    hit = np.flatnonzero(run.steps == step)
+    if hit.size == 0:
+        raise PublishedError(f"{run.path} has no evaluation at step {step:,} (its last is at {int(run.steps[-1]):,})")
+    return run.returns[hit[0]]
+
+
+def compare(run: runs_io.Run, step: int | None = None) -> dict:
+    """One row: the run at ``step`` (default: its last evaluation) next to the published curve."""
+    step = int(run.steps[-1]) if step is None else step
+    ref = anchor(run.env, algorithm_of(run), step)
+    x = ours_at(run, step)
+    if x.size < 2:
+        raise PublishedError(f"{run.path} has {x.size} seed; a comparison needs at least 2")
+    w = stats.welch_from_stats(float(x.mean()), float(x.std(ddof=1)), int(x.size), ref.mean, ref.sd, ref.n)
+    return {"run": run.path, "env": run.env, "algorithm": algorithm_of(run), "activation": run.activation,
+            "step": step, "ours_mean": float(x.mean()), "ours_sd": float(x.std(ddof=1)), "ours_n": int(x.size),
+            "published": ref.__dict__, "diff": w.diff, "diff_ci": [w.low, w.high], "welch_p": w.test.p_two_sided}
+
+
+def sentence(row: dict) -> str:
+    """The row in words: inside or outside what the published curve's spread allows."""
+    lo, hi = row["diff_ci"]
+    if lo > 0 or hi < 0:
+        side = "above" if lo > 0 else "below"
+        return f"{side} the published curve (the difference's 95 % CI excludes 0)"
+    return "no difference from the published curve detected (the difference's 95 % CI contains 0)"
+
+
+def render(rows: list[dict]) -> str:
+    """The rows as a markdown table and one sentence each."""
+    L = [f"Ours next to {SOURCE} at the same step (mean ± sample std over seeds; difference ours − "
+         "published with Welch's 95 % CI and p):", "",
+         "| run | env | algorithm | activation | step | ours | published | published, mean over ±50k | "
+         "ours − published [95 % CI] (p) |", "|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        p = r["published"]
+        L.append(f"| {r['run']} | {r['env']} | {r['algorithm']} | {r['activation']} | {r['step']:,} | "
+                 f"{r['ours_mean']:.1f} ± {r['ours_sd']:.1f} (n {r['ours_n']}) | {p['mean']:.1f} ± {p['sd']:.1f} "
+                 f"(n {p['n']}, {p['env']}) | {p['window_mean']:.1f} | {r['diff']:+.1f} [{r['diff_ci'][0]:+.1f}, "
+                 f"{r['diff_ci'][1]:+.1f}] ({stats.fmt_p(r['welch_p'])}) |")
+    L += [""] + [f"- {r['run']}: {sentence(r)}." for r in rows]
+    return "\n".join(L)
+
+
+def parse_args(argv):
+    p = cli_parser.ArgumentParser(prog="python -m swim_jax.published", description=__doc__.split("\n")[0],
+                                  formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("runs", nargs="+", metavar="RUN_DIR", help="run folders (a sweep folder stands for its points)")
+    p.add_argument("--at-step", type=int, default=None, metavar="N",
+                   help="compare at step N (a multiple of 5000; default: each run's last evaluation)")
+    p.add_argument("--json", default=None, metavar="FILE", help="also write the rows as JSON to FILE (must not exist)")
+    a = p.parse_args(argv)
+    if a.at_step is not None and (a.at_step < 0 or a.at_step % 5000):
+        p.error(f"--at-step must be a non-negative multiple of 5000 (the published curves' spacing), got {a.at_step}")
+    if a.json is not None and os.path.exists(a.json):
+        p.error(f"--json {a.json} exists; nothing written")
+    return a
+
+
+def main(argv=None) -> int:
+    """CLI entry point; returns the exit status (0 printed, 2 bad input with one line on stderr)."""
+    args = parse_args(sys.argv[1:] if argv is None else list(argv))
+    try:
+        runs = [runs_io.load_run(p, args.at_step) for p in runs_io.expand_sweeps(args.runs)]
+        rows = [compare(r, args.at_step) for r in runs]
+    except (PublishedError, runs_io.RunError) as e:
+        print(f"published: error: {e}", file=sys.stderr)
+        return 2
+    print(render(rows))
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(rows, f, indent=1)
+            f.write("\n")
+    return 0

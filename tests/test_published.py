@@ -1,0 +1,103 @@
+"""``python -m swim_jax.published``: the published curves' extract against the figures Tianshou's README
+publishes, Welch from summary statistics against SciPy, and the command on curated runs."""
+
+import json
+import math
+import os
+
+import numpy as np
+import pytest
+from scipy import stats as sps
+
+from swim_jax.analysis import published, stats
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+WALKER_RELU = os.path.join(REPO, "runs", "curated", "study-table2", "walker_relu")
+
+# Tianshou's README (examples/mujoco/README.md at 63f0e9a): max over the first 1M steps, mean ± std
+README_1M = {("Walker2d-v3", "TD3"): (3982.4, 274.5), ("Hopper-v3", "TD3"): (3472.2, 116.8),
+             ("HalfCheetah-v3", "TD3"): (10201.2, 772.8), ("Swimmer-v3", "TD3"): (104.2, 34.2),
+             ("Walker2d-v3", "SAC"): (5007.0, 251.5), ("Hopper-v3", "SAC"): (3542.2, 51.5),
+             ("HalfCheetah-v3", "SAC"): (12138.8, 1049.3), ("Swimmer-v3", "SAC"): (44.4, 0.5)}
+
+
+@pytest.mark.parametrize("env,agent", sorted(README_1M))
+def test_extract_reproduces_the_readme_1m_table(env, agent):
+    points = json.load(open(published.DATA))["envs"][env][agent]
+    best = max((p for p in points if p[0] <= 1_000_000), key=lambda p: p[1])
+    assert (round(best[1], 1), round(best[2], 1)) == README_1M[env, agent]
+
+
+def test_anchor_at_300k_and_its_sample_std():
+    a = published.anchor("Walker2d-v5", "td3", 300_000)
+    assert (a.env, a.n, a.mean) == ("Walker2d-v3", 10, 1663.4857)
+    assert a.sd == pytest.approx(444.9467 * math.sqrt(10 / 9), rel=1e-12)
+    points = {p[0]: p[1] for p in json.load(open(published.DATA))["envs"]["Walker2d-v3"]["TD3"]}
+    assert a.window_mean == pytest.approx(np.mean([points[s] for s in range(250_000, 350_001, 5000)]), rel=1e-12)
+
+
+@pytest.mark.parametrize("env,algorithm,step,fragment", [
+    ("Ant-v5", "td3", 300_000, "no published curve for Ant-v5"),
+    ("Walker2d-v5", "ppo2", 300_000, "no published ppo2 curve"),
+    ("Walker2d-v5", "td3", 300_001, "no point at step 300,001"),
+])
+def test_anchor_refuses_what_is_not_published(env, algorithm, step, fragment):
+    with pytest.raises(published.PublishedError, match=fragment):
+        published.anchor(env, algorithm, step)
+
+
+@pytest.mark.parametrize("mx,sx,nx,my,sy,ny", [(1390.6, 1121.3, 5, 1663.5, 469.0, 10), (46.5, 0.4, 5, 59.3, 18.2, 10),
+                                               (10.0, 3.0, 3, 1.0, 0.5, 7)])
+def test_welch_from_stats_against_scipy(mx, sx, nx, my, sy, ny):
+    w = stats.welch_from_stats(mx, sx, nx, my, sy, ny)
+    ref = sps.ttest_ind_from_stats(mx, sx, nx, my, sy, ny, equal_var=False)
+    assert w.test.t == pytest.approx(ref.statistic, rel=1e-12)
+    assert w.test.p_two_sided == pytest.approx(ref.pvalue, rel=1e-9)
+    se = math.sqrt(sx ** 2 / nx + sy ** 2 / ny)
+    half = sps.t.ppf(0.975, w.test.df) * se
+    assert (w.low, w.high) == pytest.approx((mx - my - half, mx - my + half), rel=1e-9)
+
+
+def test_welch_from_stats_equals_the_sample_forms():
+    rng = np.random.default_rng(0)
+    x, y = rng.normal(3, 2, 5), rng.normal(1, 1, 8)
+    w = stats.welch_from_stats(x.mean(), x.std(ddof=1), 5, y.mean(), y.std(ddof=1), 8)
+    assert w.test.p_two_sided == pytest.approx(stats.welch_t_test(x, y).p_two_sided, rel=1e-12)
+    assert (w.low, w.high) == pytest.approx(stats.welch_diff_ci(x, y), rel=1e-12)
+
+
+def test_command_on_a_curated_cell(capsys, tmp_path):
+    out = tmp_path / "rows.json"
+    assert published.main([WALKER_RELU, "--at-step", "300000", "--json", str(out)]) == 0
+    row, = json.load(open(out))
+    evals = np.load(os.path.join(WALKER_RELU, "evaluations.npy"))  # [evaluations, seeds]
+    x = evals[300_000 // 5000]
+    assert row["ours_mean"] == pytest.approx(x.mean(), rel=1e-12) and row["ours_n"] == x.size
+    assert row["ours_sd"] == pytest.approx(x.std(ddof=1), rel=1e-12)
+    assert row["published"]["mean"] == 1663.4857 and "Walker2d-v5 | td3 | relu | 300,000" in capsys.readouterr().out
+
+
+def _exit_status(argv) -> int:
+    """``published.main``'s status, argparse's refusals (SystemExit) included."""
+    try:
+        return published.main(argv)
+    except SystemExit as e:
+        return e.code
+
+
+@pytest.mark.parametrize("argv,fragment", [
+    ([WALKER_RELU, "--at-step", "12345"], "multiple of 5000"),
+    ([WALKER_RELU, "--at-step", "400000"], "400000"),
+    ([os.path.join(REPO, "runs", "no-such-run")], "no-such-run"),
+])
+def test_bad_input_is_one_line_and_exit_2(argv, fragment, capsys):
+    assert _exit_status(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and fragment in err
+
+
+def test_existing_json_is_not_overwritten(tmp_path, capsys):
+    out = tmp_path / "rows.json"
+    out.write_text("keep")
+    assert _exit_status([WALKER_RELU, "--json", str(out)]) == 2 and out.read_text() == "keep"
+
