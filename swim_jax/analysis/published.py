@@ -87,11 +87,6 @@ def anchor(env: str, algorithm: str, step: int) -> Anchor:
                   float(np.mean(window)))
 
 
-def algorithm_of(run: runs_io.Run) -> str:
-    """The run's ``agent.kind`` (``td3`` when the config does not say)."""
-    return str((run.config.get("agent") or {}).get("kind", "td3"))
-
-
 def ours_at(run: runs_io.Run, step: int) -> np.ndarray:
     """The run's seeds' evaluation returns at ``step`` (:class:`PublishedError` if it has none there)."""
     hit = np.flatnonzero(run.steps == step)
@@ -103,12 +98,12 @@ def ours_at(run: runs_io.Run, step: int) -> np.ndarray:
 def compare(run: runs_io.Run, step: int | None = None) -> dict:
     """One row: the run at ``step`` (default: its last evaluation) next to the published curve."""
     step = int(run.steps[-1]) if step is None else step
-    ref = anchor(run.env, algorithm_of(run), step)
+    ref = anchor(run.env, run.algorithm, step)
     x = ours_at(run, step)
     if x.size < 2:
         raise PublishedError(f"{run.path} has {x.size} seed; a comparison needs at least 2")
     w = stats.welch_from_stats(float(x.mean()), float(x.std(ddof=1)), int(x.size), ref.mean, ref.sd, ref.n)
-    return {"run": run.path, "env": run.env, "algorithm": algorithm_of(run), "activation": run.activation,
+    return {"run": run.path, "env": run.env, "algorithm": run.algorithm, "activation": run.activation,
             "step": step, "ours_mean": float(x.mean()), "ours_sd": float(x.std(ddof=1)), "ours_n": int(x.size),
             "published": ref.__dict__, "diff": w.diff, "diff_ci": [w.low, w.high], "welch_p": w.test.p_two_sided}
 
@@ -157,8 +152,7 @@ def main(argv=None) -> int:
     """CLI entry point; returns the exit status (0 printed, 2 bad input with one line on stderr)."""
     args = parse_args(sys.argv[1:] if argv is None else list(argv))
     try:
-        runs = [runs_io.load_run(p, args.at_step) for p in runs_io.expand_sweeps(args.runs)]
-        rows = [compare(r, args.at_step) for r in runs]
+        rows = [compare(r, args.at_step) for r in runs_io.load_runs(args.runs, args.at_step)]
     except (PublishedError, runs_io.RunError) as e:
         print(f"published: error: {e}", file=sys.stderr)
         return 2

@@ -97,6 +97,11 @@ class Run:
         return Schedule(self.total_steps, self.eval_freq).eval_steps(self.returns.shape[0])
 
     @property
+    def algorithm(self) -> str:
+        """Its ``agent.kind`` (``td3`` when the config does not say)."""
+        return str((self.config.get("agent") or {}).get("kind", "td3"))
+
+    @property
     def expected_evals(self) -> int:
         return 1 + self.total_steps // self.eval_freq
 
@@ -361,6 +366,12 @@ def group_runs(runs: list[Run], allow_incomplete: bool = False, mixed_precision:
                                                                if mixed else [])
         groups[env] = g
     return groups
+
+
+def load_runs(paths: list[str], at_step: int | None = None) -> list[Run]:
+    """:func:`load_run` on every path (at ``at_step`` when given), sweep folders expanded to their
+    points (:func:`expand_sweeps`)."""
+    return [load_run(p, at_step) for p in expand_sweeps(paths)]
 
 
 def expand_sweeps(paths: list[str]) -> list[str]:

@@ -212,10 +212,16 @@ def welch_from_stats(mean_x: float, sd_x: float, n_x: int, mean_y: float, sd_y: 
         raise ValueError("Welch's t-test needs at least 2 values per sample")
     d, ax, ay = float(mean_x - mean_y), sd_x ** 2 / n_x, sd_y ** 2 / n_y
     test = _welch(d, ax, ay, n_x, n_y)
+    return WelchFromStats(d, *_welch_ci(d, ax, ay, test, level), test)
+
+
+def _welch_ci(d, ax, ay, test: WelchResult, level: float) -> tuple[float, float]:
+    """``d`` ± t_{(1+level)/2, df} · √(ax + ay), df that of ``test`` (:func:`_welch` of the same
+    numbers); both squared standard errors zero: ``d`` twice."""
     if ax + ay == 0:
-        return WelchFromStats(d, d, d, test)
+        return d, d
     half = student_t_quantile(0.5 + level / 2, test.df) * math.sqrt(ax + ay)
-    return WelchFromStats(d, d - half, d + half, test)
+    return d - half, d + half
 
 
 def student_t_two_sided_p(t: float, df: float) -> float:
@@ -282,10 +288,7 @@ def welch_diff_ci(x, y, level: float = 0.95) -> tuple[float, float]:
         raise ValueError("a difference CI needs at least 2 values per sample")
     ax, ay = x.var(ddof=1) / x.size, y.var(ddof=1) / y.size
     d = float(x.mean() - y.mean())
-    if ax + ay == 0:
-        return d, d
-    half = student_t_quantile(0.5 + level / 2, _welch(d, ax, ay, x.size, y.size).df) * math.sqrt(ax + ay)
-    return d - half, d + half
+    return _welch_ci(d, ax, ay, _welch(d, ax, ay, x.size, y.size), level)
 
 
 def betainc_regularized(a: float, b: float, x: float) -> float:

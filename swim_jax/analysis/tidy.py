@@ -29,7 +29,7 @@ def tidy_rows(runs: list[Run]) -> list[dict]:
         setting = r.setting
         params = ",".join(f"{k}={v:g}" for k, v in setting.params) + ("+learnable" if setting.learnable else "")
         fixed = {"env": name or r.env, "env_version": version if name else "", "algorithm":
-                 str((r.config.get("agent") or {}).get("kind", "td3")), "activation": setting.name,
+                 r.algorithm, "activation": setting.name,
                  "activation_params": params, "label": r.activation, "precision": numerics(r)}
         for j, (_, seed) in enumerate(r.seed_ids):
             for i in range(r.returns.shape[0]):

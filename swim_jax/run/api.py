@@ -74,7 +74,7 @@ def load_runs(paths: str | Iterable[str], at_step: int | None = None) -> list[ru
     dtype of its products; ``at_step``: as if its budget were that many steps. Unfinished runs give
     the evaluations they have. ``swim_jax.analysis.runs_io.RunError`` (one line) on a bad folder."""
     paths = [paths] if isinstance(paths, str) else list(paths)
-    return [runs_io.load_run(p, at_step) for p in runs_io.expand_sweeps(paths)]
+    return runs_io.load_runs(paths, at_step)
 
 
 def results(runs: Iterable[runs_io.Run | str]) -> list[dict]:
