@@ -237,3 +237,45 @@ def test_ours_episodes_refuses_sweep_points_and_needs_the_jax_side(policy_runs, 
         err = capsys.readouterr().err.strip().splitlines()
         assert rc == 2 and len(err) == 1 and message in err[0], err
         assert not (tmp_path / "t.json").exists()
+
+
+def test_in_env_runs_the_policy_in_another_version(policy_runs, capsys, tmp_path):
+    """--in-env Hopper-v4: a Hopper-v5 policy's episodes in Gymnasium's Hopper-v4 (same observation
+    size and action bounds), equal to the episodes written out here; our side n/a; both envs named."""
+    run = policy_runs["f64"].run_dir
+    table = tmp_path / "t.json"
+    rc, out, err = run_main(capsys, run, "--seed", 1, "--episodes", 3, "--env-seed", 5, "--in-env", "Hopper-v4",
+                            "--json", table)
+    assert rc == 0, err
+    assert out.splitlines()[0].endswith("deterministic actions, in Hopper-v4")
+    rows = [line for line in out.splitlines() if line.startswith("| /")]
+    assert len(rows) == 1 and "| Hopper-v4 (trained in Hopper-v5) | swim+learnable | 1 | 2000 | n/a |" in rows[0]
+    data = json.loads(table.read_text())
+    row = data["rows"][0]
+    assert data["in_env"] == "Hopper-v4" and row["env_id"] == "Hopper-v4" and row["trained_env_id"] == "Hopper-v5"
+    assert row["ours"] is None and row["difference_ci95"] is None and row["welch_p"] is None
+    policy = pol.load_policy(run, seed=1)
+    v4 = direct_gymnasium_returns(policy, "Hopper-v4", range(5, 8))
+    np.testing.assert_array_equal(row["gymnasium"]["returns"], v4)
+    # the versions' models differ, so the same policy and reset seeds give other returns in v5
+    assert not np.array_equal(v4, direct_gymnasium_returns(policy, "Hopper-v5", range(5, 8)))
+
+
+@pytest.mark.parametrize("extra,message", [
+    (["--in-env", "HalfCheetah-v5"], r"--in-env HalfCheetah-v5: observations of size 17, 6 actions in \[-1, 1\]; the "
+                                     r"policy of .* \(Hopper-v5\) takes 11 and acts in 3 dims"),
+    (["--in-env", "NoSuchEnv-v0"], r"env 'NoSuchEnv-v0': Gymnasium cannot make it"),
+])
+def test_in_env_bad_env_is_one_line_exit_2(extra, message, policy_runs, capsys, tmp_path):
+    rc = evaluate.main([policy_runs["f64"].run_dir, *extra, "--json", str(tmp_path / "t.json")])
+    out, err = capsys.readouterr()
+    assert rc == 2 and out == "" and err.count("\n") == 1 and re.search(message, err), err
+    assert not (tmp_path / "t.json").exists()
+
+
+def test_in_env_refuses_our_side_and_export(policy_runs, capsys):
+    for extra in (["--ours-episodes", "4"], ["--seed", "0", "--export", "p.npz"]):
+        with pytest.raises(SystemExit) as e:
+            evaluate.main([policy_runs["f64"].run_dir, "--in-env", "Hopper-v4", *extra])
+        err = capsys.readouterr().err.strip().splitlines()
+        assert e.value.code == 2 and len(err) == 1 and "drop --ours-episodes and --export" in err[0], err

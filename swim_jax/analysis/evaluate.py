@@ -24,6 +24,12 @@ precision and products, JAX needed), so that both sides of the difference are la
 first ``eval_episodes`` of them are the recorded episodes exactly, the rest extend them. Plain
 runs' final policies only (not with ``--step`` or sweep points).
 
+``--in-env ID`` runs the episodes in another Gymnasium env instead of each run's own ``env.id``,
+one whose observation size and action bounds are the policy's (e.g. a Walker2d-v5 policy in
+Walker2d-v4, whose only model difference is the right foot's friction): how a learned gait scores
+under the other version. Our side is then n/a (our evaluation ran in the training env); each row
+names both envs (``env_id`` and ``trained_env_id`` in the JSON).
+
 ``--json FILE`` also writes the table (every episode's return and length included);
 ``--export FILE.npz`` writes one seed's policy as weights plus a JSON header (``--seed N`` needed
 when the run has several seeds) instead of evaluating; README ("Trained policies outside the
@@ -31,7 +37,9 @@ project") shows the NumPy lines that run such a file without this project.
 
 Exit status: 0 done; 2 bad input (missing run folder, no config.yaml, seed out of range, no policy at
 the step, no final policy and no --step, bad arguments, existing --json/--export without --force,
---ours-episodes with --step, --export or a sweep point):
+--ours-episodes with --step, --export or a sweep point, an ``--in-env`` Gymnasium cannot make or
+whose observation size or action bounds differ from the policy's, --in-env with --ours-episodes
+or --export):
 one line on stderr, nothing written.
 """
 
@@ -51,7 +59,8 @@ import numpy as np
 from swim_jax.io import cli_parser
 from swim_jax.io.schedule import Schedule
 from swim_jax.analysis import stats
-from swim_jax.policy.policy import Policy, PolicyError, RunPolicies, load_policy, make_gymnasium, run_folders, run_policies
+from swim_jax.policy.policy import (Policy, PolicyError, RunPolicies, env_spec, load_policy, make_gymnasium,
+                                    run_folders, run_policies)
 
 DEFAULT_EPISODES = 100
 
@@ -131,8 +140,9 @@ def gymnasium_returns(policy, env_id: str, episodes: int, env_seed: int = 0,
     return returns, lengths
 
 
-def targets(paths: list[str], seed: str, step: int | None) -> list[Target]:
-    """Every (run folder, seed) to evaluate, policies loaded (all input checked before any episode)."""
+def targets(paths: list[str], seed: str, step: int | None, in_env: str | None = None) -> list[Target]:
+    """Every (run folder, seed) to evaluate, policies loaded (all input checked before any episode);
+    with ``in_env``, every policy checked to act in it (:func:`check_in_env`)."""
     out = []
     for path in paths:
         try:
@@ -147,20 +157,41 @@ def targets(paths: list[str], seed: str, step: int | None) -> list[Target]:
                     policy = load_policy(folder, s, step)
                     at = int(policy.source["step"])
                     ours, mean = our_evaluation(run, pos, at)
+                    if in_env is not None and in_env != run.env_id:
+                        check_in_env(policy, run, in_env)
+                        ours, mean = None, None  # our evaluation ran in the training env
                     out.append(Target(run, s, at, policy, ours, mean))
         except PolicyError as e:
             raise EvaluateError(str(e)) from None
     return out
 
 
-def evaluate_row(t: Target, episodes: int, env_seed: int) -> dict:
-    """One row of the table: our evaluation and Gymnasium's, with the comparison."""
+def check_in_env(policy: Policy, run: RunPolicies, env_id: str) -> None:
+    """Raise :class:`PolicyError` (one line) unless ``policy`` (trained in ``run.env_id``) can act in
+    Gymnasium's ``env_id``: the same observation size and the same action bounds (the actor's tanh
+    scaling is the training env's)."""
+    obs_size, low, high = env_spec(env_id)
+    same_bounds = low.shape == policy.action_low.shape and np.array_equal(low, policy.action_low) \
+        and np.array_equal(high, policy.action_high)
+    if obs_size != policy.obs_size or not same_bounds:
+        raise PolicyError(f"--in-env {env_id}: observations of size {obs_size}, {low.size} actions in "
+                          f"[{low.min():g}, {high.max():g}]; the policy of {run.path} ({run.env_id}) takes "
+                          f"{policy.obs_size} and acts in {policy.action_size} dims in "
+                          f"[{policy.action_low.min():g}, {policy.action_high.max():g}] (valid: an env with "
+                          f"the same observation size and action bounds, e.g. another version of {run.env_id})")
+
+
+def evaluate_row(t: Target, episodes: int, env_seed: int, in_env: str | None = None) -> dict:
+    """One row of the table: our evaluation and Gymnasium's, with the comparison; with ``in_env``,
+    Gymnasium's episodes run in that env (``t.ours`` is then None: see :func:`targets`)."""
     max_steps = t.run.config.get("env", {}).get("max_episode_steps")
+    env_id = t.run.env_id if in_env is None else in_env
     t0 = time.time()
-    returns, lengths = gymnasium_returns(t.policy, t.run.env_id, episodes, env_seed, max_steps)
+    returns, lengths = gymnasium_returns(t.policy, env_id, episodes, env_seed, max_steps)
     ci = stats.mean_ci(returns)
     row = {
-        "run": t.run.path, "env_id": t.run.env_id, "activation": t.label, "seed": t.seed, "step": t.step,
+        "run": t.run.path, "env_id": env_id, "trained_env_id": t.run.env_id, "activation": t.label,
+        "seed": t.seed, "step": t.step,
         "policy": {"dtype": t.policy.dtype.name, "matmul_dtype": t.policy.matmul_dtype,
                    "source": "final_policy.npz" if t.run.final and t.step == t.run.total_steps else "checkpoint"},
         "ours": None if t.ours_mean is None else {
@@ -204,7 +235,9 @@ def format_row(row: dict) -> str:
     diff = "n/a" if d is None else f"{ours['mean'] - gym['mean']:+.2f} [{d[0]:+.2f}, {d[1]:+.2f}]"
     if differs(row):
         diff = f"**{diff}**"
-    return (f"| {row['run']} | {row['env_id']} | {row['activation']} | {row['seed']} | {row['step']} | {ours_s} | "
+    env = row["env_id"] if row.get("trained_env_id", row["env_id"]) == row["env_id"] else \
+        f"{row['env_id']} (trained in {row['trained_env_id']})"
+    return (f"| {row['run']} | {env} | {row['activation']} | {row['seed']} | {row['step']} | {ours_s} | "
             f"{gym['mean']:.2f} [{lo:.2f}, {hi:.2f}] ({gym['n']}) | {gym['sd']:.2f} | {inside} | {diff} | {p} |")
 
 
@@ -224,8 +257,14 @@ def parse_args(argv):
     p.add_argument("--ours-episodes", type=int, default=None, metavar="N",
                    help="our side: N fresh episodes per seed of the run's own evaluation program on its final "
                         "policies (JAX), instead of the run's recorded evaluation (at least 2)")
+    p.add_argument("--in-env", default=None, metavar="ID",
+                   help="run the episodes in this Gymnasium env instead of each run's env.id (the same observation "
+                        "size and action bounds, e.g. Walker2d-v4 for a Walker2d-v5 policy)")
     p.add_argument("--force", action="store_true", help="replace an existing --json/--export file")
     a = p.parse_args(argv)
+    if a.in_env is not None and (a.ours_episodes is not None or a.export is not None):
+        p.error("--in-env evaluates in another env, where our own evaluation did not run; drop --ours-episodes "
+                "and --export")
     if a.ours_episodes is not None:
         if a.ours_episodes < 2:
             p.error(f"--ours-episodes must be >= 2 (a confidence interval needs two episodes), got {a.ours_episodes}")
@@ -280,7 +319,7 @@ def main(argv=None, our_episodes: Callable[[str, int], np.ndarray] | None = None
     try:
         _check_out(args.json, args.force, "--json")
         _check_out(args.export, args.force, "--export")
-        rows = targets(args.run_dirs, args.seed, args.step)
+        rows = targets(args.run_dirs, args.seed, args.step, args.in_env)
         if args.export is not None and len(rows) != 1:
             where = sorted({t.run.path for t in rows})
             raise EvaluateError(f"--export writes one policy; {len(rows)} match ({len(where)} run folder(s): "
@@ -304,12 +343,13 @@ def main(argv=None, our_episodes: Callable[[str, int], np.ndarray] | None = None
         return 0
     t_start = time.time()
     print(f"Gymnasium {_version('gymnasium')} (MuJoCo {_version('mujoco')}): {args.episodes} episodes per seed, "
-          f"reset seeds {args.env_seed}..{args.env_seed + args.episodes - 1}, deterministic actions")
+          f"reset seeds {args.env_seed}..{args.env_seed + args.episodes - 1}, deterministic actions"
+          + ("" if args.in_env is None else f", in {args.in_env}"))
     print(HEADER)
     print("|" + "---|" * (HEADER.count("|") - 1))
     table = []
     for t in rows:
-        row = evaluate_row(t, args.episodes, args.env_seed)
+        row = evaluate_row(t, args.episodes, args.env_seed, args.in_env)
         table.append(row)
         print(format_row(row), flush=True)
     outside = sum(r["ours_in_ci"] is False for r in table)
@@ -321,6 +361,7 @@ def main(argv=None, our_episodes: Callable[[str, int], np.ndarray] | None = None
             json.dump({"command": "python -m swim_jax.evaluate " + " ".join(sys.argv[1:] if argv is None else argv),
                        "gymnasium": _version("gymnasium"), "mujoco": _version("mujoco"),
                        "episodes": args.episodes, "env_seed": args.env_seed, "ours_episodes": args.ours_episodes,
+                       "in_env": args.in_env,
                        "rows": table}, f, indent=1)
             f.write("\n")
         print(f"evaluate: wrote {args.json}")
