@@ -1,8 +1,8 @@
 """The small tools under tools/: tools/compare_runs.py on synthetic run folders with known curves
 (expectations by hand, Welch's p against scipy's own test), tools/bench_peers.py's ``--ours`` row
 selection (command line, bad input, row mapping; the benchmark itself runs the peers for minutes with
-a second Python that has torch and is run by hand, docs/PERFORMANCE.md: td3-vs-peers), and the bad-input line of
-tools/f32_input_floor.py."""
+a second Python that has torch and is run by hand, docs/PERFORMANCE.md: td3-vs-peers), the bad-input line of
+tools/f32_input_floor.py, and tools/cross_env_table.py on hand-written evaluate tables."""
 
 import os
 import subprocess
@@ -117,7 +117,7 @@ def test_f32_input_floor_bad_env_is_one_line_exit_2(args):
     ["-m", "swim_jax.plots"], ["-m", "swim_jax.bench", "roofline"], ["-m", "swim_jax.report"], ["-m", "swim_jax.render"],
     ["-m", "swim_jax.evaluate"], ["-m", "swim_jax.study"], ["-m", "swim_jax.bench", "checkpoint"], ["-m", "swim_jax.bench", "startup"],
     ["tools/bench_program_variants.py"], ["tools/bench_compiler_options.py"], ["tools/bench_native_host.py"],
-    ["tools/bench_peers.py"],
+    ["tools/bench_peers.py"], ["tools/cross_env_table.py"],
 ], ids=lambda c: " ".join(c).replace("-m ", ""))
 def test_every_command_lines_usage_error_is_one_line_and_exit_2(command):
     done = subprocess.run([sys.executable, *command, "--no-such-option"], capture_output=True, text=True, cwd=ROOT)
@@ -172,3 +172,40 @@ def test_peer_rounds_rotate_the_programs_and_keep_every_raw_result(monkeypatch):
     assert res["summary"]["pytorch"]["label"] == "PyTorch TD3 (Fujimoto, original), 2 procs × 1 thread"
     assert res["summary"]["ours-mujoco-groups"]["round_ratios"] == pytest.approx([150 / 120, 200 / 180, 210 / 200])
     assert len(logged) == 9 and logged[0].startswith("[Hopper-v5 round 1/3] pytorch: 100.0 env-steps/s")
+
+
+def write_eval_table(path, env, means, run="runs/x"):
+    """A minimal ``evaluate --json`` table: one row per seed with Gymnasium mean ``means[seed]``."""
+    import json
+
+    rows = [{"run": run, "seed": s, "step": 1000, "env_id": env, "gymnasium": {"mean": m}} for s, m in enumerate(means)]
+    path.write_text(json.dumps({"rows": rows}))
+    return path
+
+
+def test_cross_env_table_pairs_seeds_and_gives_the_paired_t_test(tmp_path):
+    a = write_eval_table(tmp_path / "a.json", "Walker2d-v5", [100.0, 200.0, 300.0, 400.0])
+    b = write_eval_table(tmp_path / "b.json", "Walker2d-v4", [110.0, 190.0, 330.0, 420.0])
+    done = run_tool("cross_env_table.py", a, b)
+    assert done.returncode == 0, done.stderr
+    row = done.stdout.splitlines()[2]
+    # by hand: differences 10, -10, 30, 20: mean 12.5, sd 17.08, se 8.539, t 1.464
+    ref = scipy_stats.ttest_rel([110, 190, 330, 420], [100, 200, 300, 400])
+    ci = ref.confidence_interval(0.95)
+    assert ref.statistic == pytest.approx(12.5 / (np.std([10, -10, 30, 20], ddof=1) / 2))
+    assert row == (f"| runs/x: Walker2d-v5 → Walker2d-v4 | 100, 200, 300, 400 (250) | 110, 190, 330, 420 (262) | "
+                   f"+12 [{ci.low:+.0f}, {ci.high:+.0f}] ({ref.pvalue:.2g}) |")
+
+
+@pytest.mark.parametrize("files,message", [
+    (["a"], "1 files: give pairs"),
+    (["a", "c"], "the same (run, seed, step) rows"),
+    (["a", "bad"], "not a table of python -m swim_jax.evaluate --json"),
+])
+def test_cross_env_table_bad_input_is_one_line_exit_2(files, message, tmp_path):
+    write_eval_table(tmp_path / "a", "Walker2d-v5", [1.0, 2.0])
+    write_eval_table(tmp_path / "c", "Walker2d-v4", [1.0, 2.0, 3.0])
+    (tmp_path / "bad").write_text("{}")
+    done = run_tool("cross_env_table.py", *[tmp_path / f for f in files])
+    lines = done.stderr.strip().splitlines()
+    assert done.returncode == 2 and done.stdout == "" and len(lines) == 1 and message in lines[0], done.stderr

@@ -1,0 +1,80 @@
+"""Two Gymnasium evaluations of the same policies, one per env, side by side: how a learned gait scores
+in another version of its env.
+
+    python -m swim_jax.evaluate RUN --json in-v5.json                       # the training env
+    python -m swim_jax.evaluate RUN --in-env Walker2d-v4 --json in-v4.json  # the other version
+    python tools/cross_env_table.py in-v5.json in-v4.json [A2.json B2.json ...]
+
+Each pair of ``python -m swim_jax.evaluate --json`` files must hold the same (run, seed, step) rows
+evaluated in two envs. One markdown row per pair: each seed's Gymnasium mean in A and in B (their
+mean over seeds in brackets), and B − A over seeds, paired by seed: the mean difference d̄ with its
+95 % CI d̄ ± t₀.₉₇₅,ₙ₋₁ · sd(d)/√n and the paired t-test's two-sided p (n = seeds, at least 2).
+Bad input (an odd number of files, a file that is not such a table, rows that do not match): one
+line on stderr, exit status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+import numpy as np
+from scipy import stats
+
+from swim_jax.io import cli_parser
+
+HEADER = "| run | seeds' means in A (mean) | in B (mean) | B − A, paired by seed [95 % CI] (p) |"
+
+
+def read_table(path: str) -> tuple[str, dict[tuple, float]]:
+    """(env, {(run, seed, step): Gymnasium mean}) of one ``evaluate --json`` file (one env)."""
+    try:
+        with open(path) as f:
+            rows = json.load(f)["rows"]
+        means = {(r["run"], r["seed"], r["step"]): float(r["gymnasium"]["mean"]) for r in rows}
+        envs = {r["env_id"] for r in rows}
+    except (OSError, ValueError, KeyError, TypeError) as e:
+        raise ValueError(f"{path}: not a table of python -m swim_jax.evaluate --json ({e})") from None
+    if len(envs) != 1 or not means:
+        raise ValueError(f"{path}: expected rows of one env, got {sorted(envs) or 'no rows'}")
+    return envs.pop(), means
+
+
+def paired_row(path_a: str, path_b: str) -> str:
+    """The markdown row of one pair of files (see the module docstring)."""
+    env_a, a = read_table(path_a)
+    env_b, b = read_table(path_b)
+    if set(a) != set(b) or len(a) < 2:
+        raise ValueError(f"{path_a} and {path_b}: the same (run, seed, step) rows, at least 2, are needed; "
+                         f"got {len(a)} and {len(b)} rows, {len(set(a) & set(b))} shared")
+    keys = sorted(a)
+    x, y = np.array([a[k] for k in keys]), np.array([b[k] for k in keys])
+    t = stats.ttest_rel(y, x)
+    ci = t.confidence_interval(0.95)
+    runs = sorted({k[0] for k in keys})
+    fmt = lambda v: ", ".join(f"{m:.0f}" for m in v) + f" ({v.mean():.0f})"  # noqa: E731
+    return (f"| {', '.join(runs)}: {env_a} → {env_b} | {fmt(x)} | {fmt(y)} | "
+            f"{y.mean() - x.mean():+.0f} [{ci.low:+.0f}, {ci.high:+.0f}] ({t.pvalue:.2g}) |")
+
+
+def main(argv=None) -> int:
+    p = cli_parser.ArgumentParser(prog="python tools/cross_env_table.py", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("tables", nargs="+", metavar="TABLE.json", help="pairs of evaluate --json files")
+    args = p.parse_args(argv)
+    if len(args.tables) % 2:
+        p.error(f"{len(args.tables)} files: give pairs (A B), one per set of policies")
+    try:
+        rows = [paired_row(a, b) for a, b in zip(args.tables[::2], args.tables[1::2])]
+    except ValueError as e:
+        print(f"cross_env_table: error: {e}", file=sys.stderr)
+        return 2
+    print(HEADER)
+    print("|---|---|---|---|")
+    print("\n".join(rows))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
