@@ -101,3 +101,29 @@ def test_existing_json_is_not_overwritten(tmp_path, capsys):
     out.write_text("keep")
     assert _exit_status([WALKER_RELU, "--json", str(out)]) == 2 and out.read_text() == "keep"
 
+
+
+def test_figure_draws_each_run_over_its_published_curve(tmp_path, capsys):
+    """--figure: one panel per task, each run's curve named by its folder, env, activation and
+    products, the published curve under it, drawn up to --at-step."""
+    sac = os.path.join(REPO, "runs", "curated", "sac-check", "hopper_relu")
+    out = tmp_path / "curves.svg"
+    assert published.main([WALKER_RELU, sac, "--at-step", "100000", "--figure", str(out)]) == 0
+    assert capsys.readouterr().out.endswith(f"published: wrote {out}\n")
+    svg = out.read_text()
+    for text in ("study-table2/walker_relu: Walker2d-v5 relu, float32, bfloat16 products, 5 seeds",
+                 "sac-check/hopper_relu: Hopper-v5 relu, float32, 3 seeds", "published TD3 (Walker2d-v3)",
+                 "published SAC (Hopper-v3)", "Walker2d, TD3", "Hopper, SAC"):
+        assert text in svg, text
+    assert "300k" not in svg and "100k" in svg  # the x axis ends at --at-step
+
+
+@pytest.mark.parametrize("name,fragment", [("f.pdf", "must end in .png or .svg"), ("exists.png", "exists; nothing written"),
+                                           ("no/f.png", "does not exist")])
+def test_figure_bad_path_is_one_line_exit_2_nothing_written(name, fragment, tmp_path, capsys):
+    (tmp_path / "exists.png").write_text("keep")
+    before = sorted(os.listdir(tmp_path))
+    assert _exit_status([WALKER_RELU, "--figure", str(tmp_path / name)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and fragment in err
+    assert sorted(os.listdir(tmp_path)) == before and (tmp_path / "exists.png").read_text() == "keep"

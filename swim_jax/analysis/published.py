@@ -14,6 +14,9 @@ ours − published with Welch's 95 % CI and two-sided p from those summary stati
 (:func:`swim_jax.analysis.stats.welch_from_stats`), and the published mean over N ± 50k (the single
 points are noisy). N defaults to each run's last evaluation. A run whose env or algorithm has no
 published curve, or a step it has not reached or the curve lacks: one line, exit 2.
+
+``--figure FILE`` (.png or .svg) also draws the runs' learning curves over the published curves up
+to N (swim_jax/analysis/published_figure.py).
 """
 
 from __future__ import annotations
@@ -140,7 +143,17 @@ def parse_args(argv):
     p.add_argument("--at-step", type=int, default=None, metavar="N",
                    help="compare at step N (a multiple of 5000; default: each run's last evaluation)")
     p.add_argument("--json", default=None, metavar="FILE", help="also write the rows as JSON to FILE (must not exist)")
+    p.add_argument("--figure", default=None, metavar="FILE",
+                   help="also draw the runs' curves over the published ones to FILE (.png or .svg; must not exist)")
     a = p.parse_args(argv)
+    if a.figure is not None:
+        if not a.figure.endswith((".png", ".svg")):
+            p.error(f"--figure must end in .png or .svg, got {a.figure!r}")
+        if os.path.exists(a.figure):
+            p.error(f"--figure {a.figure} exists; nothing written")
+        folder = os.path.dirname(os.path.abspath(a.figure))
+        if not os.path.isdir(folder):
+            p.error(f"--figure {a.figure}: folder {folder} does not exist")
     if a.at_step is not None and (a.at_step < 0 or a.at_step % 5000):
         p.error(f"--at-step must be a non-negative multiple of 5000 (the published curves' spacing), got {a.at_step}")
     if a.json is not None and os.path.exists(a.json):
@@ -152,7 +165,8 @@ def main(argv=None) -> int:
     """CLI entry point; returns the exit status (0 printed, 2 bad input with one line on stderr)."""
     args = parse_args(sys.argv[1:] if argv is None else list(argv))
     try:
-        rows = [compare(r, args.at_step) for r in runs_io.load_runs(args.runs, args.at_step)]
+        runs = runs_io.load_runs(args.runs, args.at_step)
+        rows = [compare(r, args.at_step) for r in runs]
     except (PublishedError, runs_io.RunError) as e:
         print(f"published: error: {e}", file=sys.stderr)
         return 2
@@ -161,4 +175,11 @@ def main(argv=None) -> int:
         with open(args.json, "w") as f:
             json.dump(rows, f, indent=1)
             f.write("\n")
+    if args.figure:
+        from swim_jax.analysis import published_figure  # matplotlib only when asked
+
+        tasks = {(published_env(r.env), r.algorithm) for r in runs}
+        curves = {(env, alg): _curves()[env][alg.upper()] for env, alg in sorted(tasks)}
+        published_figure.figure(runs, curves, SOURCE, [args.figure], up_to=args.at_step)
+        print(f"published: wrote {args.figure}")
     return 0
