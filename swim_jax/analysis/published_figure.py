@@ -70,6 +70,6 @@ def figure(runs: list[runs_io.Run], curves: dict, source: str, paths: list[str],
             ax.legend(fontsize=7, loc="upper left")
         for ax in list(axes.flat)[n:]:
             ax.set_visible(False)
-        fig.suptitle(f"Ours over {source}: mean over seeds, shaded ± std", fontsize=10)
+        fig.suptitle(f"Ours over the published curves: {source}\nmean over seeds, shaded ± std", fontsize=9)
         fig.tight_layout()
         _save(fig, paths)
