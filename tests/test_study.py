@@ -368,3 +368,13 @@ def test_a_curated_report_shows_uncopied_cells_as_they_stand_where_the_study_tra
     assert f"| {last} | started | {st.step} |" in report_md
     assert f"(their state in {trained}): " in report_md and f"{last} (started, step {st.step})" in report_md
 
+
+
+@pytest.mark.parametrize("path", sorted(os.listdir(os.path.join(REPO, "configs", "studies"))))
+def test_every_shipped_study_file_loads_and_its_cells_validate(path, tmp_path):
+    """Each configs/studies/*.yaml is a valid study: every cell's config resolves and validates
+    (study.load), the cells do not pool, and its float32 study files multiply in float32."""
+    s = study.load(os.path.join(REPO, "configs", "studies", path), out_dir=str(tmp_path))
+    assert s.cells and all(c.run_dir.startswith(str(tmp_path)) for c in s.cells)
+    if path.startswith("f32-"):
+        assert {c.cfg.matmul_dtype for c in s.cells} == {"full"}
