@@ -127,3 +127,44 @@ def test_figure_bad_path_is_one_line_exit_2_nothing_written(name, fragment, tmp_
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and fragment in err
     assert sorted(os.listdir(tmp_path)) == before and (tmp_path / "exists.png").read_text() == "keep"
+
+
+@pytest.fixture
+def seeds_5_to_9(tmp_path):
+    """A copy of WALKER_RELU whose config says its seeds are 5-9 (as configs/studies/*-seeds5-9.yaml
+    writes them): the same experiment, other seeds, so the report's policy pools it with the original."""
+    import shutil
+
+    import yaml
+
+    other = tmp_path / "more" / "walker_relu"
+    shutil.copytree(WALKER_RELU, other)
+    cfg = yaml.safe_load((other / "config.yaml").read_text())
+    cfg["first_seed"] = 5
+    (other / "config.yaml").write_text(yaml.safe_dump(cfg))
+    os.remove(other / "metrics.csv")  # its rows name seeds 0-4 (metrics.csv is optional)
+    return str(other)
+
+
+def test_pool_gives_one_row_of_every_folders_seeds(seeds_5_to_9, tmp_path, capsys):
+    out = tmp_path / "rows.json"
+    fig = tmp_path / "pooled.svg"
+    assert published.main([WALKER_RELU, seeds_5_to_9, "--pool", "--at-step", "300000", "--json", str(out),
+                           "--figure", str(fig)]) == 0
+    row, = json.load(open(out))
+    x = np.load(os.path.join(WALKER_RELU, "evaluations.npy"))[60]
+    both = np.concatenate([x, x])
+    assert row["run"] == f"{WALKER_RELU} + {seeds_5_to_9}" and row["ours_n"] == 10
+    assert row["ours_mean"] == pytest.approx(both.mean(), rel=1e-12)
+    assert row["ours_sd"] == pytest.approx(both.std(ddof=1), rel=1e-12)
+    assert "study-table2/walker_relu + more/walker_relu: Walker2d-v5 relu" in fig.read_text()
+    capsys.readouterr()
+    # without --pool: two rows of 5
+    assert published.main([WALKER_RELU, seeds_5_to_9, "--at-step", "300000"]) == 0
+    assert capsys.readouterr().out.count("(n 5)") == 2
+
+
+def test_pool_refuses_a_seed_twice(capsys):
+    assert _exit_status([WALKER_RELU, os.path.join(REPO, "runs", "curated", "study-table2", "walker_relu"), "--pool"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "seed" in err

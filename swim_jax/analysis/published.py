@@ -15,6 +15,10 @@ ours − published with Welch's 95 % CI and two-sided p from those summary stati
 points are noisy). N defaults to each run's last evaluation. A run whose env or algorithm has no
 published curve, or a step it has not reached or the curve lacks: one line, exit 2.
 
+``--pool`` pools run folders of one (env, activation) as more seeds, as the report does
+(``swim_jax.analysis.runs_io``'s grouping policy: the same config but for the seeds, no seed twice,
+one numerics per env), e.g. seeds 0–4 and 5–9 of one cell as one row of 10 seeds.
+
 ``--figure FILE`` (.png or .svg) also draws the runs' learning curves over the published curves up
 to N (swim_jax/analysis/published_figure.py).
 """
@@ -22,6 +26,7 @@ to N (swim_jax/analysis/published_figure.py).
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import functools
 import json
 import math
@@ -111,6 +116,19 @@ def compare(run: runs_io.Run, step: int | None = None) -> dict:
             "published": ref.__dict__, "diff": w.diff, "diff_ci": [w.low, w.high], "welch_p": w.test.p_two_sided}
 
 
+def pooled(runs: list[runs_io.Run]) -> list[runs_io.Run]:
+    """The runs pooled by (env, activation) as the report pools them (:func:`runs_io.group_runs`;
+    :class:`runs_io.RunError` when they cannot be): one Run per curve set, its ``path`` the folders
+    joined by `` + ``, its returns every folder's seeds side by side."""
+    out = []
+    for group in runs_io.group_runs(runs).values():
+        for c in group.curves.values():
+            first = c.run_objects[0]
+            out.append(dataclasses.replace(first, path=" + ".join(c.runs), returns=c.returns,
+                                           seed_ids=[s for r in c.run_objects for s in r.seed_ids]))
+    return out
+
+
 def sentence(row: dict) -> str:
     """The row in words: inside or outside what the published curve's spread allows."""
     lo, hi = row["diff_ci"]
@@ -143,6 +161,8 @@ def parse_args(argv):
     p.add_argument("--at-step", type=int, default=None, metavar="N",
                    help="compare at step N (a multiple of 5000; default: each run's last evaluation)")
     p.add_argument("--json", default=None, metavar="FILE", help="also write the rows as JSON to FILE (must not exist)")
+    p.add_argument("--pool", action="store_true",
+                   help="pool run folders of one (env, activation) as more seeds, as the report does")
     p.add_argument("--figure", default=None, metavar="FILE",
                    help="also draw the runs' curves over the published ones to FILE (.png or .svg; must not exist)")
     a = p.parse_args(argv)
@@ -166,6 +186,8 @@ def main(argv=None) -> int:
     args = parse_args(sys.argv[1:] if argv is None else list(argv))
     try:
         runs = runs_io.load_runs(args.runs, args.at_step)
+        if args.pool:
+            runs = pooled(runs)
         rows = [compare(r, args.at_step) for r in runs]
     except (PublishedError, runs_io.RunError) as e:
         print(f"published: error: {e}", file=sys.stderr)

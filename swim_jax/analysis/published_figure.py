@@ -25,9 +25,10 @@ GREYS = ("#7f7f7f", "#c7c7c7")
 
 
 def run_label(run: runs_io.Run) -> str:
-    """A curve's legend: the folder (with its parent, so two studies' ``walker_relu`` differ), env,
-    activation, products and seeds."""
-    folder = os.path.join(os.path.basename(os.path.dirname(os.path.abspath(run.path))), os.path.basename(run.path))
+    """A curve's legend: the folder (with its parent, so two studies' ``walker_relu`` differ; pooled
+    folders joined by +), env, activation, products and seeds."""
+    folder = " + ".join(os.path.join(os.path.basename(os.path.dirname(os.path.abspath(p))), os.path.basename(p))
+                        for p in run.path.split(" + "))
     return f"{folder}: {run.env} {run.activation}, {runs_io.numerics(run)}, {run.returns.shape[1]} seeds"
 
 
