@@ -7,3 +7,7 @@ cd $HOME/swim-study/src || exit 1
 for f in f32-walker-relu-seeds5-9 f32-walker-v4-seeds5-9; do
   $HOME/swim-study/venv/bin/python -m swim_jax.study $HOME/swim-study/$f.yaml || exit $?
 done
+# 2026-12-07 00:30: then Table II's lost bfloat16 walker_swim cell again, from 644b99b (the code of every
+# Table II cell; worktree ~/swim-study/src-t2), so that the precision table has its 12th pair.
+cd $HOME/swim-study/src-t2 || exit 1
+$HOME/swim-study/venv/bin/python -m swim_jax.study $HOME/swim-study/table2-walker-swim-bf16.yaml
