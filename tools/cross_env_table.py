@@ -8,7 +8,8 @@ in another version of its env.
 Each pair of ``python -m swim_jax.evaluate --json`` files must hold the same (run, seed, step) rows
 evaluated in two envs. One markdown row per pair: each seed's Gymnasium mean in A and in B (their
 mean over seeds in brackets), and B − A over seeds, paired by seed: the mean difference d̄ with its
-95 % CI d̄ ± t₀.₉₇₅,ₙ₋₁ · sd(d)/√n and the paired t-test's two-sided p (n = seeds, at least 2).
+95 % CI d̄ ± t₀.₉₇₅,ₙ₋₁ · sd(d)/√n (``stats.mean_ci`` of the differences) and the paired t-test's
+two-sided p of t = d̄ / (sd(d)/√n) with n − 1 degrees of freedom (n = seeds, at least 2).
 Bad input (an odd number of files, a file that is not such a table, rows that do not match): one
 line on stderr, exit status 2.
 """
@@ -17,11 +18,12 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 
 import numpy as np
-from scipy import stats
 
+from swim_jax.analysis import stats
 from swim_jax.io import cli_parser
 
 HEADER = "| run | seeds' means in A (mean) | in B (mean) | B − A, paired by seed [95 % CI] (p) |"
@@ -50,12 +52,12 @@ def paired_row(path_a: str, path_b: str) -> str:
                          f"got {len(a)} and {len(b)} rows, {len(set(a) & set(b))} shared")
     keys = sorted(a)
     x, y = np.array([a[k] for k in keys]), np.array([b[k] for k in keys])
-    t = stats.ttest_rel(y, x)
-    ci = t.confidence_interval(0.95)
+    ci = stats.mean_ci(y - x)
+    p = stats.student_t_two_sided_p(ci.mean / (ci.sd / math.sqrt(ci.n)), ci.n - 1) if ci.sd > 0 else float("nan")
     runs = sorted({k[0] for k in keys})
     fmt = lambda v: ", ".join(f"{m:.0f}" for m in v) + f" ({v.mean():.0f})"  # noqa: E731
     return (f"| {', '.join(runs)}: {env_a} → {env_b} | {fmt(x)} | {fmt(y)} | "
-            f"{y.mean() - x.mean():+.0f} [{ci.low:+.0f}, {ci.high:+.0f}] ({t.pvalue:.2g}) |")
+            f"{ci.mean:+.0f} [{ci.low:+.0f}, {ci.high:+.0f}] ({p:.2g}) |")
 
 
 def main(argv=None) -> int:
