@@ -74,9 +74,10 @@ def published_env(env: str) -> str:
     return env.split("-")[0] + "-v3"
 
 
-def anchor(env: str, algorithm: str, step: int) -> Anchor:
-    """The published ``algorithm`` (``td3`` or ``sac``) curve of ``env`` at ``step``
-    (:class:`PublishedError` naming what exists when there is none)."""
+def curve_points(env: str, algorithm: str) -> list:
+    """The published ``algorithm`` (``td3`` or ``sac``) curve of our ``env``: ``[[step, mean,
+    population std], ...]`` every 5,000 steps (:class:`PublishedError` naming what exists when there
+    is none)."""
     curves = _curves()
     key = published_env(env)
     if key not in curves:
@@ -85,7 +86,14 @@ def anchor(env: str, algorithm: str, step: int) -> Anchor:
     if not points:
         raise PublishedError(f"no published {algorithm} curve for {env}: published algorithms are "
                              f"{', '.join(a.lower() for a in curves[key])}")
-    at = {int(s): (m, sd) for s, m, sd in points}
+    return points
+
+
+def anchor(env: str, algorithm: str, step: int) -> Anchor:
+    """The published ``algorithm`` (``td3`` or ``sac``) curve of ``env`` at ``step``
+    (:class:`PublishedError` naming what exists when there is none)."""
+    key = published_env(env)
+    at = {int(s): (m, sd) for s, m, sd in curve_points(env, algorithm)}
     if step not in at:
         raise PublishedError(f"the published {algorithm} curve of {key} has no point at step {step:,}: "
                              f"it has every 5,000 steps up to {max(at):,}")
@@ -200,8 +208,6 @@ def main(argv=None) -> int:
     if args.figure:
         from swim_jax.analysis import published_figure  # matplotlib only when asked
 
-        tasks = {(published_env(r.env), r.algorithm) for r in runs}
-        curves = {(env, alg): _curves()[env][alg.upper()] for env, alg in sorted(tasks)}
-        published_figure.figure(runs, curves, SOURCE, [args.figure], up_to=args.at_step)
+        published_figure.figure(runs, [args.figure], up_to=args.at_step)
         print(f"published: wrote {args.figure}")
     return 0

@@ -18,6 +18,7 @@ import numpy as np  # noqa: E402
 from matplotlib.ticker import FuncFormatter  # noqa: E402
 
 from swim_jax.analysis import runs_io  # noqa: E402
+from swim_jax.analysis.published import SOURCE, curve_points, published_env  # noqa: E402
 from swim_jax.analysis.report_figure import _save, _steps_label, extra_colors  # noqa: E402
 
 
@@ -32,15 +33,10 @@ def run_label(run: runs_io.Run) -> str:
     return f"{folder}: {run.env} {run.activation}, {runs_io.numerics(run)}, {run.returns.shape[1]} seeds"
 
 
-def figure(runs: list[runs_io.Run], curves: dict, source: str, paths: list[str], up_to: int | None = None) -> None:
-    """Draw ``runs`` over their published curves and save the figure to each of ``paths``.
-
-    ``curves``: ``{(published env, algorithm): [[step, mean, population std], ...]}`` with a key for
-    every run's task (``(published_env(run.env), run.algorithm)``, keys in panel order); ``source``
-    names the published runs in the figure's title; ``up_to``: the last step drawn (default: each
+def figure(runs: list[runs_io.Run], paths: list[str], up_to: int | None = None) -> None:
+    """Draw ``runs`` over their published curves (:func:`curve_points`; panels in the runs' order of
+    tasks) and save the figure to each of ``paths``; ``up_to``: the last step drawn (default: each
     panel's runs' last evaluation)."""
-    from swim_jax.analysis.published import published_env  # the one mapping of our env ids to theirs
-
     panels: dict[tuple[str, str], list[runs_io.Run]] = {}
     for run in runs:
         panels.setdefault((published_env(run.env), run.algorithm), []).append(run)
@@ -53,7 +49,7 @@ def figure(runs: list[runs_io.Run], curves: dict, source: str, paths: list[str],
         fig, axes = plt.subplots(nrows, ncols, figsize=(6.5 * ncols, 4.2 * nrows), squeeze=False)
         for ax, ((env, algorithm), group) in zip(axes.flat, panels.items()):
             last = up_to if up_to is not None else max(int(r.steps[-1]) for r in group)
-            ref = np.asarray(curves[(env, algorithm)], np.float64)
+            ref = np.asarray(curve_points(group[0].env, algorithm), np.float64)
             ref = ref[ref[:, 0] <= last]
             ax.plot(ref[:, 0], ref[:, 1], color="black", lw=1.8, label=f"published {algorithm.upper()} ({env})")
             ax.fill_between(ref[:, 0], ref[:, 1] - ref[:, 2], ref[:, 1] + ref[:, 2], color="0.5", alpha=0.25, lw=0)
@@ -71,6 +67,6 @@ def figure(runs: list[runs_io.Run], curves: dict, source: str, paths: list[str],
             ax.legend(fontsize=7, loc="upper left")
         for ax in list(axes.flat)[n:]:
             ax.set_visible(False)
-        fig.suptitle(f"Ours over the published curves: {source}\nmean over seeds, shaded ± std", fontsize=9)
+        fig.suptitle(f"Ours over the published curves: {SOURCE}\nmean over seeds, shaded ± std", fontsize=9)
         fig.tight_layout()
         _save(fig, paths)
