@@ -235,7 +235,7 @@ def format_row(row: dict) -> str:
     diff = "n/a" if d is None else f"{ours['mean'] - gym['mean']:+.2f} [{d[0]:+.2f}, {d[1]:+.2f}]"
     if differs(row):
         diff = f"**{diff}**"
-    env = row["env_id"] if row.get("trained_env_id", row["env_id"]) == row["env_id"] else \
+    env = row["env_id"] if row["trained_env_id"] == row["env_id"] else \
         f"{row['env_id']} (trained in {row['trained_env_id']})"
     return (f"| {row['run']} | {env} | {row['activation']} | {row['seed']} | {row['step']} | {ours_s} | "
             f"{gym['mean']:.2f} [{lo:.2f}, {hi:.2f}] ({gym['n']}) | {gym['sd']:.2f} | {inside} | {diff} | {p} |")
