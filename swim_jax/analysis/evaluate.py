@@ -287,13 +287,9 @@ def parse_args(argv):
 
 
 def _check_out(path: str | None, force: bool, flag: str) -> None:
-    if path is None:
-        return
-    if os.path.exists(path) and not force:
-        raise EvaluateError(f"{flag} {path} exists; refusing to overwrite (use --force)")
-    folder = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(folder):
-        raise EvaluateError(f"{flag} {path}: folder {folder} does not exist")
+    problem = None if path is None else cli_parser.output_file_problem(flag, path, force)
+    if problem:
+        raise EvaluateError(problem)
 
 
 def reevaluate(rows: list[Target], episodes: int, our_episodes: Callable[[str, int], np.ndarray]) -> None:

@@ -177,15 +177,14 @@ def parse_args(argv):
     if a.figure is not None:
         if not a.figure.endswith((".png", ".svg")):
             p.error(f"--figure must end in .png or .svg, got {a.figure!r}")
-        if os.path.exists(a.figure):
-            p.error(f"--figure {a.figure} exists; nothing written")
-        folder = os.path.dirname(os.path.abspath(a.figure))
-        if not os.path.isdir(folder):
-            p.error(f"--figure {a.figure}: folder {folder} does not exist")
+        problem = cli_parser.output_file_problem("--figure", a.figure)
+        if problem:
+            p.error(problem)
     if a.at_step is not None and (a.at_step < 0 or a.at_step % 5000):
         p.error(f"--at-step must be a non-negative multiple of 5000 (the published curves' spacing), got {a.at_step}")
-    if a.json is not None and os.path.exists(a.json):
-        p.error(f"--json {a.json} exists; nothing written")
+    problem = a.json is not None and cli_parser.output_file_problem("--json", a.json)
+    if problem:
+        p.error(problem)
     return a
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 
 
 class ArgumentParser(argparse.ArgumentParser):
@@ -12,3 +13,19 @@ class ArgumentParser(argparse.ArgumentParser):
 
     def error(self, message):
         self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
+
+
+def output_file_problem(flag: str, path: str, force: bool | None = None) -> str | None:
+    """Why ``path`` cannot be written as the file of option ``flag``, as one line, or None if it can.
+
+    A file there is refused: ``exists; nothing written`` for a command without ``--force``
+    (``force=None``), ``exists; refusing to overwrite (use --force)`` when ``--force`` was not given
+    (``force=False``), and allowed with ``force=True``. A folder that does not exist is refused always:
+    nothing creates it behind the user's back."""
+    if os.path.exists(path) and not force:
+        return f"{flag} {path} exists; " + ("nothing written" if force is None else
+                                            "refusing to overwrite (use --force)")
+    folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder):
+        return f"{flag} {path}: folder {folder} does not exist"
+    return None

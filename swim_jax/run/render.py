@@ -311,11 +311,9 @@ def main(argv=None) -> int:
     try:
         if not os.path.isdir(args.run_dir):
             raise RenderError(f"{args.run_dir}: not a directory")
-        if os.path.exists(args.out) and not args.force:
-            raise RenderError(f"--out {args.out} exists; refusing to overwrite (use --force)")
-        out_dir = os.path.dirname(os.path.abspath(args.out))
-        if not os.path.isdir(out_dir):
-            raise RenderError(f"--out {args.out}: folder {out_dir} does not exist")
+        problem = cli_parser.output_file_problem("--out", args.out, args.force)
+        if problem:
+            raise RenderError(problem)
         if args.out.lower().endswith(".mp4") and ffmpeg_executable() is None:
             raise RenderSkipped("writing .mp4 needs ffmpeg (apt-get install ffmpeg, or pip install "
                                 "imageio-ffmpeg); use a .gif --out instead")

@@ -1,0 +1,32 @@
+"""The shared command-line pieces: a usage error is one line with exit 2, and an output file's check
+(exists / folder missing / --force) says the same thing in every command that writes one."""
+
+import os
+
+import pytest
+
+from swim_jax.io import cli_parser
+
+
+def test_usage_error_is_one_line_with_exit_2(capsys):
+    p = cli_parser.ArgumentParser(prog="prog")
+    p.add_argument("--n", type=int)
+    with pytest.raises(SystemExit) as e:
+        p.parse_args(["--n", "x"])
+    err = capsys.readouterr().err
+    assert e.value.code == 2
+    assert err.count("\n") == 1 and err.startswith("prog: error: ") and err.endswith("(see --help)\n")
+
+
+def test_output_file_problem(tmp_path):
+    free, taken, orphan = tmp_path / "new.json", tmp_path / "old.json", tmp_path / "no" / "f.json"
+    taken.write_text("kept")
+    assert cli_parser.output_file_problem("--json", str(free)) is None
+    assert cli_parser.output_file_problem("--json", str(taken)) == f"--json {taken} exists; nothing written"
+    assert cli_parser.output_file_problem("--json", str(taken), force=False) == (
+        f"--json {taken} exists; refusing to overwrite (use --force)")
+    assert cli_parser.output_file_problem("--json", str(taken), force=True) is None
+    for force in (None, False, True):
+        assert cli_parser.output_file_problem("--out", str(orphan), force) == (
+            f"--out {orphan}: folder {tmp_path / 'no'} does not exist")
+    assert taken.read_text() == "kept" and not os.path.exists(orphan.parent)
