@@ -29,23 +29,28 @@ def run_main(capsys, *argv):
     return rc, out, err
 
 
-def direct_gymnasium_returns(policy, env_id: str, seeds) -> list[float]:
-    """Episode returns of ``policy`` in Gymnasium from ``reset(seed=s)``, written out here."""
+def direct_gymnasium_episodes(policy, env_id: str, seeds) -> tuple[list[float], list[int]]:
+    """Episode returns and lengths of ``policy`` in Gymnasium from ``reset(seed=s)``, written out here."""
     import gymnasium as gym
 
     env = gym.make(env_id)
-    out = []
+    returns, lengths = [], []
     for s in seeds:
         obs, _ = env.reset(seed=s)
-        total = 0.0
+        total, t = 0.0, 0
         while True:
             obs, r, term, trunc, _ = env.step(policy(obs))
-            total += r
+            total, t = total + r, t + 1
             if term or trunc:
                 break
-        out.append(total)
+        returns.append(total)
+        lengths.append(t)
     env.close()
-    return out
+    return returns, lengths
+
+
+def direct_gymnasium_returns(policy, env_id: str, seeds) -> list[float]:
+    return direct_gymnasium_episodes(policy, env_id, seeds)[0]
 
 
 def test_table_and_json_of_a_short_run(policy_runs, capsys, tmp_path):
@@ -71,7 +76,11 @@ def test_table_and_json_of_a_short_run(policy_runs, capsys, tmp_path):
         # Gymnasium: the policy's returns from reset seeds 10..13, and a t-based 95 % CI
         g = row["gymnasium"]
         policy = pol.load_policy(res.run_dir, seed=pos)
-        np.testing.assert_array_equal(g["returns"], direct_gymnasium_returns(policy, "Hopper-v5", range(10, 14)))
+        returns, lengths = direct_gymnasium_episodes(policy, "Hopper-v5", range(10, 14))
+        np.testing.assert_array_equal(g["returns"], returns)
+        assert g["lengths"] == lengths and g["time_limit"] == 1000
+        assert g["at_time_limit"] == sum(n == 1000 for n in lengths)
+        assert f"| {np.mean(lengths):.0f} ({g['at_time_limit']}/4) |" in rows[pos]
         x = np.asarray(g["returns"])
         half = scipy.stats.t.ppf(0.975, x.size - 1) * x.std(ddof=1) / np.sqrt(x.size)
         np.testing.assert_allclose(g["ci95"], [x.mean() - half, x.mean() + half], rtol=1e-9)

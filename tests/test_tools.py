@@ -197,6 +197,29 @@ def test_cross_env_table_pairs_seeds_and_gives_the_paired_t_test(tmp_path):
                    f"+12 [{ci.low:+.0f}, {ci.high:+.0f}] ({ref.pvalue:.2g}) |")
 
 
+def test_cross_env_table_lengths_split_return_into_length_and_return_per_step(tmp_path):
+    """--lengths: per seed the mean episode length, the episodes at the time limit and Σ returns / Σ lengths."""
+    import json
+
+    episodes = {0: ([100.0, 300.0], [50, 1000]), 1: ([2000.0, 1000.0], [1000, 400])}
+    tables = []
+    for name, env in (("a.json", "Walker2d-v5"), ("b.json", "Walker2d-v4")):
+        rows = [{"run": "runs/x", "seed": s, "step": 1000, "env_id": env,
+                 "gymnasium": {"mean": float(np.mean(r)), "returns": r, "lengths": n, "time_limit": 1000,
+                               "at_time_limit": sum(k >= 1000 for k in n)}} for s, (r, n) in episodes.items()]
+        (tmp_path / name).write_text(json.dumps({"rows": rows}))
+        tables.append(tmp_path / name)
+    done = run_tool("cross_env_table.py", "--lengths", *tables)
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    # seed 0: lengths 50 and 1000 (mean 525, one at the limit), 400 / 1050 per step; seed 1: 700, 1, 3000 / 1400
+    assert lines[-2:] == [f"| runs/x: {env} | 525 (1/2), 700 (1/2) | {400 / 1050:.2f}, {3000 / 1400:.2f} |"
+                          for env in ("Walker2d-v5", "Walker2d-v4")]
+    old = write_eval_table(tmp_path / "old.json", "Walker2d-v5", [1.0, 2.0])
+    done = run_tool("cross_env_table.py", "--lengths", old, tables[1])
+    assert done.returncode == 2 and "with episode lengths" in done.stderr and done.stdout == ""
+
+
 @pytest.mark.parametrize("files,message", [
     (["a"], "1 files: give pairs"),
     (["a", "c"], "the same (run, seed, step) rows"),

@@ -4,12 +4,16 @@ in another version of its env.
     python -m swim_jax.evaluate RUN --json in-v5.json                       # the training env
     python -m swim_jax.evaluate RUN --in-env Walker2d-v4 --json in-v4.json  # the other version
     python tools/cross_env_table.py in-v5.json in-v4.json [A2.json B2.json ...]
+    python tools/cross_env_table.py --lengths in-v5.json in-v4.json       # also: falls or speed?
 
 Each pair of ``python -m swim_jax.evaluate --json`` files must hold the same (run, seed, step) rows
 evaluated in two envs. One markdown row per pair: each seed's Gymnasium mean in A and in B (their
 mean over seeds in brackets), and B − A over seeds, paired by seed: the mean difference d̄ with its
 95 % CI d̄ ± t₀.₉₇₅,ₙ₋₁ · sd(d)/√n (``stats.mean_ci`` of the differences) and the paired t-test's
 two-sided p of t = d̄ / (sd(d)/√n) with n − 1 degrees of freedom (n = seeds, at least 2).
+``--lengths`` adds a table of every file: per seed, the mean episode length, the episodes that
+reached the time limit, and the return per step (Σ returns / Σ lengths). Return = length × return
+per step, so it tells a low return from falls (short episodes) from one of a slow gait.
 Bad input (an odd number of files, a file that is not such a table, rows that do not match): one
 line on stderr, exit status 2.
 """
@@ -27,6 +31,8 @@ from swim_jax.analysis import stats
 from swim_jax.io import cli_parser
 
 HEADER = "| run | seeds' means in A (mean) | in B (mean) | B − A, paired by seed [95 % CI] (p) |"
+LENGTHS_HEADER = ("| run: env | seeds' mean episode length (episodes at the time limit / episodes) | "
+                  "seeds' return per step |")
 
 
 def read_table(path: str) -> tuple[str, dict[tuple, float]]:
@@ -41,6 +47,26 @@ def read_table(path: str) -> tuple[str, dict[tuple, float]]:
     if len(envs) != 1 or not means:
         raise ValueError(f"{path}: expected rows of one env, got {sorted(envs) or 'no rows'}")
     return envs.pop(), means
+
+
+def lengths_row(path: str) -> str:
+    """The ``--lengths`` row of one file (see the module docstring)."""
+    try:
+        with open(path) as f:
+            rows = sorted(json.load(f)["rows"], key=lambda r: (r["run"], r["seed"], r["step"]))
+        cells = []
+        for r in rows:
+            g = r["gymnasium"]
+            lengths, returns = np.asarray(g["lengths"], float), np.asarray(g["returns"], float)
+            cells.append((lengths.mean(), g["at_time_limit"], lengths.size, returns.sum() / lengths.sum()))
+        runs, envs = sorted({r["run"] for r in rows}), sorted({r["env_id"] for r in rows})
+    except (OSError, ValueError, KeyError, TypeError) as e:
+        raise ValueError(f"{path}: not a table of python -m swim_jax.evaluate --json with episode lengths "
+                         f"(written since 2026-12-07) ({e})") from None
+    limit = lambda n: "?" if n is None else str(n)  # noqa: E731
+    return (f"| {', '.join(runs)}: {', '.join(envs)} | "
+            + ", ".join(f"{m:.0f} ({limit(k)}/{n})" for m, k, n, _ in cells) + " | "
+            + ", ".join(f"{q:.2f}" for *_, q in cells) + " |")
 
 
 def paired_row(path_a: str, path_b: str) -> str:
@@ -64,17 +90,25 @@ def main(argv=None) -> int:
     p = cli_parser.ArgumentParser(prog="python tools/cross_env_table.py", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("tables", nargs="+", metavar="TABLE.json", help="pairs of evaluate --json files")
+    p.add_argument("--lengths", action="store_true",
+                   help="also a table of episode lengths and return per step of every file")
     args = p.parse_args(argv)
     if len(args.tables) % 2:
         p.error(f"{len(args.tables)} files: give pairs (A B), one per set of policies")
     try:
         rows = [paired_row(a, b) for a, b in zip(args.tables[::2], args.tables[1::2])]
+        lengths = [lengths_row(t) for t in args.tables] if args.lengths else []
     except ValueError as e:
         print(f"cross_env_table: error: {e}", file=sys.stderr)
         return 2
     print(HEADER)
     print("|---|---|---|---|")
     print("\n".join(rows))
+    if lengths:
+        print()
+        print(LENGTHS_HEADER)
+        print("|---|---|---|")
+        print("\n".join(lengths))
     return 0
 
 

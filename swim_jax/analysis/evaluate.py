@@ -12,8 +12,9 @@ Gymnasium's own env on MuJoCo C, with deterministic actions (the actor's output,
 act). Episode ``e`` starts from ``reset(seed=env_seed + e)``, so every seed and run sees the same
 initial states. One table row per seed: our own evaluation at that step (the mean return of the
 run's ``eval_episodes`` episodes in ``evaluations_episodes.npy``, their own reset noise), Gymnasium's
-mean with its 95 % confidence interval (t-based: mean ± t₀.₉₇₅,ₙ₋₁ · sd/√n), whether ours lies
-inside it, the difference ours − Gymnasium with its Welch 95 % CI and Welch's two-sided p. Ours is
+mean with its 95 % confidence interval (t-based: mean ± t₀.₉₇₅,ₙ₋₁ · sd/√n), the mean episode
+length and how many episodes reached the time limit (a low return from falls, not from a slow
+gait, shows there), whether ours lies inside it, the difference ours − Gymnasium with its Welch 95 % CI and Welch's two-sided p. Ours is
 a mean of few episodes, so it can lie outside Gymnasium's (narrow) CI by its own sampling error; a
 difference whose CI excludes 0 (marked bold) is the sign of a fidelity problem to look into. Single
 episodes cannot be paired: a 1e-6 change in one action moves a HalfCheetah return by ~100.
@@ -118,13 +119,14 @@ def our_evaluation(run: RunPolicies, seed_pos: int, step: int) -> tuple[np.ndarr
 
 
 def gymnasium_returns(policy, env_id: str, episodes: int, env_seed: int = 0,
-                      max_episode_steps: int | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """(returns, lengths) of ``episodes`` episodes of ``policy`` in ``gymnasium.make(env_id)``:
+                      max_episode_steps: int | None = None) -> tuple[np.ndarray, np.ndarray, int | None]:
+    """(returns, lengths, time limit) of ``episodes`` episodes of ``policy`` in ``gymnasium.make(env_id)``:
     episode ``e`` from ``reset(seed=env_seed + e)``, actions ``policy(obs)`` until terminated or
-    truncated (the time limit, ``max_episode_steps`` or the env's registered one)."""
+    truncated (the time limit, ``max_episode_steps`` or the env's registered one, returned)."""
     kwargs = {} if max_episode_steps is None else {"max_episode_steps": int(max_episode_steps)}
     env = make_gymnasium(env_id, **kwargs)
     returns, lengths = np.zeros(episodes), np.zeros(episodes, np.int64)
+    limit = env.spec.max_episode_steps if env.spec is not None else None
     try:
         for e in range(episodes):
             obs, _ = env.reset(seed=env_seed + e)
@@ -137,7 +139,7 @@ def gymnasium_returns(policy, env_id: str, episodes: int, env_seed: int = 0,
             returns[e], lengths[e] = total, t
     finally:
         env.close()
-    return returns, lengths
+    return returns, lengths, limit
 
 
 def targets(paths: list[str], seed: str, step: int | None, in_env: str | None = None) -> list[Target]:
@@ -187,7 +189,7 @@ def evaluate_row(t: Target, episodes: int, env_seed: int, in_env: str | None = N
     max_steps = t.run.config.get("env", {}).get("max_episode_steps")
     env_id = t.run.env_id if in_env is None else in_env
     t0 = time.time()
-    returns, lengths = gymnasium_returns(t.policy, env_id, episodes, env_seed, max_steps)
+    returns, lengths, limit = gymnasium_returns(t.policy, env_id, episodes, env_seed, max_steps)
     ci = stats.mean_ci(returns)
     row = {
         "run": t.run.path, "env_id": env_id, "trained_env_id": t.run.env_id, "activation": t.label,
@@ -200,7 +202,8 @@ def evaluate_row(t: Target, episodes: int, env_seed: int, in_env: str | None = N
             "n": None if t.ours is None else int(t.ours.size),
             "sd": None if t.ours is None or t.ours.size < 2 else float(t.ours.std(ddof=1))},
         "gymnasium": {"mean": ci.mean, "sd": ci.sd, "n": ci.n, "ci95": [ci.low, ci.high],
-                      "returns": returns.tolist(), "lengths": lengths.tolist(),
+                      "returns": returns.tolist(), "lengths": lengths.tolist(), "time_limit": limit,
+                      "at_time_limit": None if limit is None else int((lengths >= limit).sum()),
                       "reset_seeds": [env_seed, env_seed + episodes - 1], "seconds": time.time() - t0},
         "ours_in_ci": None if t.ours_mean is None else bool(t.ours_mean in ci),
         "difference_ci95": None,  # ours − Gymnasium, Welch
@@ -221,7 +224,7 @@ def differs(row: dict) -> bool:
 
 
 HEADER = ("| run | env | activation | seed | step | ours (episodes) | Gymnasium mean [95% CI] (episodes) | sd | "
-          "ours in CI | ours − Gymnasium [95% CI] | Welch p |")
+          "mean length (at the time limit) | ours in CI | ours − Gymnasium [95% CI] | Welch p |")
 
 
 def format_row(row: dict) -> str:
@@ -237,8 +240,11 @@ def format_row(row: dict) -> str:
         diff = f"**{diff}**"
     env = row["env_id"] if row["trained_env_id"] == row["env_id"] else \
         f"{row['env_id']} (trained in {row['trained_env_id']})"
+    length = f"{np.mean(gym['lengths']):.0f}" + ("" if gym["at_time_limit"] is None else
+                                                 f" ({gym['at_time_limit']}/{gym['n']})")
     return (f"| {row['run']} | {env} | {row['activation']} | {row['seed']} | {row['step']} | {ours_s} | "
-            f"{gym['mean']:.2f} [{lo:.2f}, {hi:.2f}] ({gym['n']}) | {gym['sd']:.2f} | {inside} | {diff} | {p} |")
+            f"{gym['mean']:.2f} [{lo:.2f}, {hi:.2f}] ({gym['n']}) | {gym['sd']:.2f} | {length} | {inside} | "
+            f"{diff} | {p} |")
 
 
 def parse_args(argv):
