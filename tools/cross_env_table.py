@@ -5,6 +5,7 @@ in another version of its env.
     python -m swim_jax.evaluate RUN --in-env Walker2d-v4 --json in-v4.json  # the other version
     python tools/cross_env_table.py in-v5.json in-v4.json [A2.json B2.json ...]
     python tools/cross_env_table.py --lengths in-v5.json in-v4.json       # also: falls or speed?
+    python tools/cross_env_table.py --lengths-only T1.json [T2.json ...]   # that table alone, any files
 
 Each pair of ``python -m swim_jax.evaluate --json`` files must hold the same (run, seed, step) rows
 evaluated in two envs. One markdown row per pair: each seed's Gymnasium mean in A and in B (their
@@ -13,7 +14,8 @@ mean over seeds in brackets), and B − A over seeds, paired by seed: the mean d
 two-sided p of t = d̄ / (sd(d)/√n) with n − 1 degrees of freedom (n = seeds, at least 2).
 ``--lengths`` adds a table of every file: per seed, the mean episode length, the episodes that
 reached the time limit, and the return per step (Σ returns / Σ lengths). Return = length × return
-per step, so it tells a low return from falls (short episodes) from one of a slow gait.
+per step, so it tells a low return from falls (short episodes) from one of a slow gait;
+``--lengths-only`` prints that table alone, for any number of files (one env each, no pairs).
 Bad input (an odd number of files, a file that is not such a table, rows that do not match): one
 line on stderr, exit status 2.
 """
@@ -92,20 +94,24 @@ def main(argv=None) -> int:
     p.add_argument("tables", nargs="+", metavar="TABLE.json", help="pairs of evaluate --json files")
     p.add_argument("--lengths", action="store_true",
                    help="also a table of episode lengths and return per step of every file")
+    p.add_argument("--lengths-only", action="store_true",
+                   help="only that table, for any number of files (not paired)")
     args = p.parse_args(argv)
-    if len(args.tables) % 2:
-        p.error(f"{len(args.tables)} files: give pairs (A B), one per set of policies")
+    if len(args.tables) % 2 and not args.lengths_only:
+        p.error(f"{len(args.tables)} files: give pairs (A B), one per set of policies (or --lengths-only)")
     try:
-        rows = [paired_row(a, b) for a, b in zip(args.tables[::2], args.tables[1::2])]
-        lengths = [lengths_row(t) for t in args.tables] if args.lengths else []
+        rows = [] if args.lengths_only else [paired_row(a, b) for a, b in zip(args.tables[::2], args.tables[1::2])]
+        lengths = [lengths_row(t) for t in args.tables] if args.lengths or args.lengths_only else []
     except ValueError as e:
         print(f"cross_env_table: error: {e}", file=sys.stderr)
         return 2
-    print(HEADER)
-    print("|---|---|---|---|")
-    print("\n".join(rows))
+    if rows:
+        print(HEADER)
+        print("|---|---|---|---|")
+        print("\n".join(rows))
     if lengths:
-        print()
+        if rows:
+            print()
         print(LENGTHS_HEADER)
         print("|---|---|---|")
         print("\n".join(lengths))
