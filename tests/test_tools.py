@@ -213,12 +213,18 @@ def test_cross_env_table_lengths_split_return_into_length_and_return_per_step(tm
     assert done.returncode == 0, done.stderr
     lines = done.stdout.splitlines()
     # seed 0: lengths 50 and 1000 (mean 525, one at the limit), 400 / 1050 per step; seed 1: 700, 1, 3000 / 1400
-    assert lines[-2:] == [f"| runs/x: {env} | 525 (1/2), 700 (1/2) | {400 / 1050:.2f}, {3000 / 1400:.2f} |"
-                          for env in ("Walker2d-v5", "Walker2d-v4")]
+    assert lines[-4:-2] == [f"| runs/x: {env} | 525 (1/2), 700 (1/2) | {400 / 1050:.2f}, {3000 / 1400:.2f} |"
+                            for env in ("Walker2d-v5", "Walker2d-v4")]
+    # the share of var(log return) from the length is the slope-like ratio cov(log R, log L) / var(log R)
+    log_ret, log_len = np.log([200.0, 1500.0] * 2), np.log([525.0, 700.0] * 2)
+    share = np.cov(log_ret, log_len)[0, 1] / np.var(log_ret, ddof=1)
+    assert lines[-1] == (f"over 4 seeds, share of var(log return) from the episode length {share:.0%}, from the "
+                         f"return per step {1 - share:.0%}; Pearson r(return, length) 1.00")
     done = run_tool("cross_env_table.py", "--lengths-only", tables[1])
     assert done.returncode == 0 and done.stdout.splitlines() == [
         "| run: env | seeds' mean episode length (episodes at the time limit / episodes) | seeds' return per step |",
-        "|---|---|---|", lines[-1]], done.stderr
+        "|---|---|---|", lines[-3], "",
+        "length share: needs at least 3 seeds with positive mean returns, got 2"], done.stderr
     old = write_eval_table(tmp_path / "old.json", "Walker2d-v5", [1.0, 2.0])
     done = run_tool("cross_env_table.py", "--lengths", old, tables[1])
     assert done.returncode == 2 and "with episode lengths" in done.stderr and done.stdout == ""

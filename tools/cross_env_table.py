@@ -16,6 +16,9 @@ two-sided p of t = d̄ / (sd(d)/√n) with n − 1 degrees of freedom (n = seeds
 reached the time limit, and the return per step (Σ returns / Σ lengths). Return = length × return
 per step, so it tells a low return from falls (short episodes) from one of a slow gait;
 ``--lengths-only`` prints that table alone, for any number of files (one env each, no pairs).
+Under it, one line over all the seeds: since a seed's mean return is its mean length × its return
+per step, var(log return) splits into the length's share and the rate's (each with half the
+covariance), and Pearson's r of return and length.
 Bad input (an odd number of files, a file that is not such a table, rows that do not match): one
 line on stderr, exit status 2.
 """
@@ -51,24 +54,49 @@ def read_table(path: str) -> tuple[str, dict[tuple, float]]:
     return envs.pop(), means
 
 
-def lengths_row(path: str) -> str:
-    """The ``--lengths`` row of one file (see the module docstring)."""
+def seed_lengths(path: str) -> tuple[str, list[tuple[float, int | None, int, float, float]]]:
+    """("run: env" label, per seed (mean length, episodes at the time limit, episodes, return per
+    step, mean return)) of one ``evaluate --json`` file; return per step = Σ returns / Σ lengths."""
     try:
         with open(path) as f:
             rows = sorted(json.load(f)["rows"], key=lambda r: (r["run"], r["seed"], r["step"]))
-        cells = []
+        seeds = []
         for r in rows:
             g = r["gymnasium"]
             lengths, returns = np.asarray(g["lengths"], float), np.asarray(g["returns"], float)
-            cells.append((lengths.mean(), g["at_time_limit"], lengths.size, returns.sum() / lengths.sum()))
+            seeds.append((lengths.mean(), g["at_time_limit"], lengths.size, returns.sum() / lengths.sum(),
+                          returns.mean()))
         runs, envs = sorted({r["run"] for r in rows}), sorted({r["env_id"] for r in rows})
     except (OSError, ValueError, KeyError, TypeError) as e:
         raise ValueError(f"{path}: not a table of python -m swim_jax.evaluate --json with episode lengths "
                          f"(written since 2026-12-07) ({e})") from None
+    return f"{', '.join(runs)}: {', '.join(envs)}", seeds
+
+
+def lengths_row(label: str, seeds: list) -> str:
+    """The ``--lengths`` row of one file's :func:`seed_lengths`."""
     limit = lambda n: "?" if n is None else str(n)  # noqa: E731
-    return (f"| {', '.join(runs)}: {', '.join(envs)} | "
-            + ", ".join(f"{m:.0f} ({limit(k)}/{n})" for m, k, n, _ in cells) + " | "
-            + ", ".join(f"{q:.2f}" for *_, q in cells) + " |")
+    return (f"| {label} | " + ", ".join(f"{m:.0f} ({limit(k)}/{n})" for m, k, n, *_ in seeds) + " | "
+            + ", ".join(f"{q:.2f}" for _, _, _, q, _ in seeds) + " |")
+
+
+def length_share(seeds: list) -> str:
+    """One line over all seeds given: mean return = mean length × return per step, so over seeds
+    var(log return) = var(log length) + var(log rate) + 2 cov; the share of each is its variance plus
+    half the covariance, over var(log return) (population moments). With Pearson's r of return and
+    mean length."""
+    length = np.array([s[0] for s in seeds])
+    rate = np.array([s[3] for s in seeds])
+    ret = length * rate
+    if ret.size < 3 or np.any(ret <= 0):
+        return f"length share: needs at least 3 seeds with positive mean returns, got {ret.size}"
+    ll, lr = np.log(length), np.log(rate)
+    cov = float(np.mean((ll - ll.mean()) * (lr - lr.mean())))
+    total = ll.var() + lr.var() + 2 * cov
+    r = float(np.corrcoef(ret, length)[0, 1])
+    return (f"over {ret.size} seeds, share of var(log return) from the episode length "
+            f"{(ll.var() + cov) / total:.0%}, from the return per step {(lr.var() + cov) / total:.0%}; "
+            f"Pearson r(return, length) {r:.2f}")
 
 
 def paired_row(path_a: str, path_b: str) -> str:
@@ -101,7 +129,7 @@ def main(argv=None) -> int:
         p.error(f"{len(args.tables)} files: give pairs (A B), one per set of policies (or --lengths-only)")
     try:
         rows = [] if args.lengths_only else [paired_row(a, b) for a, b in zip(args.tables[::2], args.tables[1::2])]
-        lengths = [lengths_row(t) for t in args.tables] if args.lengths or args.lengths_only else []
+        lengths = [seed_lengths(t) for t in args.tables] if args.lengths or args.lengths_only else []
     except ValueError as e:
         print(f"cross_env_table: error: {e}", file=sys.stderr)
         return 2
@@ -114,7 +142,9 @@ def main(argv=None) -> int:
             print()
         print(LENGTHS_HEADER)
         print("|---|---|---|")
-        print("\n".join(lengths))
+        print("\n".join(lengths_row(label, seeds) for label, seeds in lengths))
+        print()
+        print(length_share([s for _, seeds in lengths for s in seeds]))
     return 0
 
 
