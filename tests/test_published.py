@@ -29,17 +29,23 @@ def test_extract_reproduces_the_readme_1m_table(env, agent):
 
 
 def test_anchor_at_300k_and_its_sample_std():
+    """300k env steps of ours are Tianshou's env_step 275k: its trainer counts from 0 after 25k random
+    steps (10k for SAC), so both sides have taken the same env steps and updates there."""
     a = published.anchor("Walker2d-v5", "td3", 300_000)
-    assert (a.env, a.n, a.mean) == ("Walker2d-v3", 10, 1663.4857)
-    assert a.sd == pytest.approx(444.9467 * math.sqrt(10 / 9), rel=1e-12)
-    points = {p[0]: p[1] for p in json.load(open(published.DATA))["envs"]["Walker2d-v3"]["TD3"]}
-    assert a.window_mean == pytest.approx(np.mean([points[s] for s in range(250_000, 350_001, 5000)]), rel=1e-12)
+    raw = {p[0]: p[1:] for p in json.load(open(published.DATA))["envs"]["Walker2d-v3"]["TD3"]}
+    assert (a.env, a.n, a.step, a.mean) == ("Walker2d-v3", 10, 300_000, raw[275_000][0])
+    assert a.sd == pytest.approx(raw[275_000][1] * math.sqrt(10 / 9), rel=1e-12)
+    assert a.window_mean == pytest.approx(np.mean([raw[s][0] for s in range(225_000, 325_001, 5000)]), rel=1e-12)
+    sac = {p[0]: p[1] for p in json.load(open(published.DATA))["envs"]["Hopper-v3"]["SAC"]}
+    assert published.anchor("Hopper-v5", "sac", 300_000).mean == sac[290_000]
+    assert published.curve_points("Walker2d-v5", "td3")[0] == [25_000, *raw[0]]
 
 
 @pytest.mark.parametrize("env,algorithm,step,fragment", [
     ("Ant-v5", "td3", 300_000, "no published curve for Ant-v5"),
     ("Walker2d-v5", "ppo2", 300_000, "no published ppo2 curve"),
     ("Walker2d-v5", "td3", 300_001, "no point at step 300,001"),
+    ("Walker2d-v5", "td3", 20_000, r"every 5,000 env steps from 25,000 to 1,275,000 \(its 25,000 random"),
 ])
 def test_anchor_refuses_what_is_not_published(env, algorithm, step, fragment):
     with pytest.raises(published.PublishedError, match=fragment):
@@ -74,7 +80,8 @@ def test_command_on_a_curated_cell(capsys, tmp_path):
     x = evals[300_000 // 5000]
     assert row["ours_mean"] == pytest.approx(x.mean(), rel=1e-12) and row["ours_n"] == x.size
     assert row["ours_sd"] == pytest.approx(x.std(ddof=1), rel=1e-12)
-    assert row["published"]["mean"] == 1663.4857 and "Walker2d-v5 | td3 | relu | 300,000" in capsys.readouterr().out
+    raw = {p[0]: p[1] for p in json.load(open(published.DATA))["envs"]["Walker2d-v3"]["TD3"]}
+    assert row["published"]["mean"] == raw[275_000] and "Walker2d-v5 | td3 | relu | 300,000" in capsys.readouterr().out
 
 
 def _exit_status(argv) -> int:
@@ -112,8 +119,9 @@ def test_figure_draws_each_run_over_its_published_curve(tmp_path, capsys):
     assert capsys.readouterr().out.endswith(f"published: wrote {out}\n")
     svg = out.read_text()
     for text in ("study-table2/walker_relu: Walker2d-v5 relu, float32, bfloat16 products, 5 seeds",
-                 "sac-check/hopper_relu: Hopper-v5 relu, float32, 3 seeds", "published TD3 (Walker2d-v3)",
-                 "published SAC (Hopper-v3)", "Walker2d, TD3", "Hopper, SAC"):
+                 "sac-check/hopper_relu: Hopper-v5 relu, float32, 3 seeds",
+                 "published TD3 (Walker2d-v3; its 25k random steps counted)",
+                 "published SAC (Hopper-v3; its 10k random steps counted)", "Walker2d, TD3", "Hopper, SAC"):
         assert text in svg, text
     assert "300k" not in svg and "100k" in svg  # the x axis ends at --at-step
 

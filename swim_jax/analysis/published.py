@@ -8,6 +8,13 @@ population std over the seeds. Its TD3 runs the TD3 reference code's current def
 ours; its SAC differs from ours (fixed α = 0.2, learning rate 1e-3, 10k random steps). Envs are gym v3
 (mujoco-py), ours Gymnasium v4/v5: the same tasks, not the same files.
 
+Steps are env steps, as ours count them: a run's random start steps included. Tianshou's
+``env_step`` starts at 0 after its random warm-up (``train_collector.collect(n_step=start_timesteps,
+random=True)`` before the trainer, whose ``env_step`` counts from 0: examples/mujoco/mujoco_td3.py
+and tianshou/trainer/offpolicy.py at e605bdea, the commit its README names; start_timesteps 25,000
+for TD3, 10,000 for SAC). So its point at ``env_step`` x is at x + 25,000 env steps (TD3) or x +
+10,000 (SAC) here: our TD3 at 300k (275k updates) sits beside its point at 275k (275k updates).
+
 For every run (a sweep folder stands for its points): our seeds' evaluations at step N (mean, sample
 std, n), the published mean at N with its sample std (population std · √(n/(n−1))), the difference
 ours − published with Welch's 95 % CI and two-sided p from those summary statistics
@@ -40,6 +47,8 @@ from swim_jax.analysis import runs_io, stats
 from swim_jax.io import cli_parser
 
 DATA = os.path.join(os.path.dirname(__file__), "published_tianshou.json")
+# Tianshou's random warm-up steps, not counted in its env_step (see the module docstring)
+WARMUP_STEPS = {"TD3": 25_000, "SAC": 10_000}
 SOURCE = "Tianshou (thu-ml/tianshou 63f0e9a, gym v3)"
 SEEDS = 10  # Tianshou's benchmark runs 10 seeds per curve
 WINDOW = 50_000  # the published mean over N ± WINDOW steps
@@ -76,8 +85,8 @@ def published_env(env: str) -> str:
 
 def curve_points(env: str, algorithm: str) -> list:
     """The published ``algorithm`` (``td3`` or ``sac``) curve of our ``env``: ``[[step, mean,
-    population std], ...]`` every 5,000 steps (:class:`PublishedError` naming what exists when there
-    is none)."""
+    population std], ...]`` every 5,000 steps, ``step`` in env steps (Tianshou's ``env_step`` +
+    :data:`WARMUP_STEPS`; :class:`PublishedError` naming what exists when there is none)."""
     curves = _curves()
     key = published_env(env)
     if key not in curves:
@@ -86,7 +95,8 @@ def curve_points(env: str, algorithm: str) -> list:
     if not points:
         raise PublishedError(f"no published {algorithm} curve for {env}: published algorithms are "
                              f"{', '.join(a.lower() for a in curves[key])}")
-    return points
+    warmup = WARMUP_STEPS[algorithm.upper()]
+    return [[s + warmup, m, sd] for s, m, sd in points]
 
 
 def anchor(env: str, algorithm: str, step: int) -> Anchor:
@@ -96,7 +106,8 @@ def anchor(env: str, algorithm: str, step: int) -> Anchor:
     at = {int(s): (m, sd) for s, m, sd in curve_points(env, algorithm)}
     if step not in at:
         raise PublishedError(f"the published {algorithm} curve of {key} has no point at step {step:,}: "
-                             f"it has every 5,000 steps up to {max(at):,}")
+                             f"it has every 5,000 env steps from {min(at):,} to {max(at):,} (its "
+                             f"{WARMUP_STEPS[algorithm.upper()]:,} random warm-up steps counted)")
     mean, pop_sd = at[step]
     window = [m for s, (m, _) in at.items() if abs(s - step) <= WINDOW]
     return Anchor(key, algorithm, step, float(mean), float(pop_sd) * math.sqrt(SEEDS / (SEEDS - 1)), SEEDS,
@@ -148,8 +159,9 @@ def sentence(row: dict) -> str:
 
 def render(rows: list[dict]) -> str:
     """The rows as a markdown table and one sentence each."""
-    L = [f"Ours next to {SOURCE} at the same step (mean ± sample std over seeds; difference ours − "
-         "published with Welch's 95 % CI and p):", "",
+    L = [f"Ours next to {SOURCE} at the same number of env steps (its env_step + its random warm-up: "
+         "25k TD3, 10k SAC); mean ± sample std over seeds; difference ours − published with Welch's 95 % "
+         "CI and p:", "",
          "| run | env | algorithm | activation | step | ours | published | published, mean over ±50k | "
          "ours − published [95 % CI] (p) |", "|---|---|---|---|---|---|---|---|---|"]
     for r in rows:

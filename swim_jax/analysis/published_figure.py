@@ -18,7 +18,7 @@ import numpy as np  # noqa: E402
 from matplotlib.ticker import FuncFormatter  # noqa: E402
 
 from swim_jax.analysis import runs_io  # noqa: E402
-from swim_jax.analysis.published import SOURCE, curve_points, published_env  # noqa: E402
+from swim_jax.analysis.published import SOURCE, WARMUP_STEPS, curve_points, published_env  # noqa: E402
 from swim_jax.analysis.report_figure import _save, _steps_label, extra_colors  # noqa: E402
 
 
@@ -51,7 +51,8 @@ def figure(runs: list[runs_io.Run], paths: list[str], up_to: int | None = None) 
             last = up_to if up_to is not None else max(int(r.steps[-1]) for r in group)
             ref = np.asarray(curve_points(group[0].env, algorithm), np.float64)
             ref = ref[ref[:, 0] <= last]
-            ax.plot(ref[:, 0], ref[:, 1], color="black", lw=1.8, label=f"published {algorithm.upper()} ({env})")
+            ax.plot(ref[:, 0], ref[:, 1], color="black", lw=1.8, label=f"published {algorithm.upper()} ({env}; its "
+                    f"{WARMUP_STEPS[algorithm.upper()] // 1000}k random steps counted)")
             ax.fill_between(ref[:, 0], ref[:, 1] - ref[:, 2], ref[:, 1] + ref[:, 2], color="0.5", alpha=0.25, lw=0)
             for i, run in enumerate(group):
                 keep = run.steps <= last
