@@ -29,6 +29,7 @@ import argparse
 import json
 import math
 import sys
+from typing import NamedTuple
 
 import numpy as np
 
@@ -54,9 +55,17 @@ def read_table(path: str) -> tuple[str, dict[tuple, float]]:
     return envs.pop(), means
 
 
-def seed_lengths(path: str) -> tuple[str, list[tuple[float, int | None, int, float, float]]]:
-    """("run: env" label, per seed (mean length, episodes at the time limit, episodes, return per
-    step, mean return)) of one ``evaluate --json`` file; return per step = Σ returns / Σ lengths."""
+class SeedLengths(NamedTuple):
+    """One seed's episodes in one ``evaluate --json`` row."""
+
+    mean_length: float
+    at_time_limit: int | None  # episodes that reached the time limit (None: the limit is unknown)
+    episodes: int
+    per_step: float  # return per step: Σ returns / Σ lengths
+
+
+def seed_lengths(path: str) -> tuple[str, list[SeedLengths]]:
+    """("run: env" label, each seed's :class:`SeedLengths`) of one ``evaluate --json`` file."""
     try:
         with open(path) as f:
             rows = sorted(json.load(f)["rows"], key=lambda r: (r["run"], r["seed"], r["step"]))
@@ -64,8 +73,7 @@ def seed_lengths(path: str) -> tuple[str, list[tuple[float, int | None, int, flo
         for r in rows:
             g = r["gymnasium"]
             lengths, returns = np.asarray(g["lengths"], float), np.asarray(g["returns"], float)
-            seeds.append((lengths.mean(), g["at_time_limit"], lengths.size, returns.sum() / lengths.sum(),
-                          returns.mean()))
+            seeds.append(SeedLengths(lengths.mean(), g["at_time_limit"], lengths.size, returns.sum() / lengths.sum()))
         runs, envs = sorted({r["run"] for r in rows}), sorted({r["env_id"] for r in rows})
     except (OSError, ValueError, KeyError, TypeError) as e:
         raise ValueError(f"{path}: not a table of python -m swim_jax.evaluate --json with episode lengths "
@@ -73,20 +81,20 @@ def seed_lengths(path: str) -> tuple[str, list[tuple[float, int | None, int, flo
     return f"{', '.join(runs)}: {', '.join(envs)}", seeds
 
 
-def lengths_row(label: str, seeds: list) -> str:
+def lengths_row(label: str, seeds: list[SeedLengths]) -> str:
     """The ``--lengths`` row of one file's :func:`seed_lengths`."""
-    limit = lambda n: "?" if n is None else str(n)  # noqa: E731
-    return (f"| {label} | " + ", ".join(f"{m:.0f} ({limit(k)}/{n})" for m, k, n, *_ in seeds) + " | "
-            + ", ".join(f"{q:.2f}" for _, _, _, q, _ in seeds) + " |")
+    at_limit = lambda s: "?" if s.at_time_limit is None else str(s.at_time_limit)  # noqa: E731
+    return (f"| {label} | " + ", ".join(f"{s.mean_length:.0f} ({at_limit(s)}/{s.episodes})" for s in seeds)
+            + " | " + ", ".join(f"{s.per_step:.2f}" for s in seeds) + " |")
 
 
-def length_share(seeds: list) -> str:
+def length_share(seeds: list[SeedLengths]) -> str:
     """One line over all seeds given: mean return = mean length × return per step, so over seeds
     var(log return) = var(log length) + var(log rate) + 2 cov; the share of each is its variance plus
     half the covariance, over var(log return) (population moments). With Pearson's r of return and
     mean length."""
-    length = np.array([s[0] for s in seeds])
-    rate = np.array([s[3] for s in seeds])
+    length = np.array([s.mean_length for s in seeds])
+    rate = np.array([s.per_step for s in seeds])
     ret = length * rate
     if ret.size < 3 or np.any(ret <= 0):
         return f"length share: needs at least 3 seeds with positive mean returns, got {ret.size}"
