@@ -159,8 +159,9 @@ def sentence(row: dict) -> str:
 
 def render(rows: list[dict]) -> str:
     """The rows as a markdown table and one sentence each."""
+    warmup = ", ".join(f"{n // 1000}k {alg}" for alg, n in WARMUP_STEPS.items())
     L = [f"Ours next to {SOURCE} at the same number of env steps (its env_step + its random warm-up: "
-         "25k TD3, 10k SAC); mean ± sample std over seeds; difference ours − published with Welch's 95 % "
+         f"{warmup}); mean ± sample std over seeds; difference ours − published with Welch's 95 % "
          "CI and p:", "",
          "| run | env | algorithm | activation | step | ours | published | published, mean over ±50k | "
          "ours − published [95 % CI] (p) |", "|---|---|---|---|---|---|---|---|---|"]
@@ -194,9 +195,10 @@ def parse_args(argv):
             p.error(problem)
     if a.at_step is not None and (a.at_step < 0 or a.at_step % 5000):
         p.error(f"--at-step must be a non-negative multiple of 5000 (the published curves' spacing), got {a.at_step}")
-    problem = a.json is not None and cli_parser.output_file_problem("--json", a.json)
-    if problem:
-        p.error(problem)
+    if a.json is not None:
+        problem = cli_parser.output_file_problem("--json", a.json)
+        if problem:
+            p.error(problem)
     return a
 
 
