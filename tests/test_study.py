@@ -347,6 +347,47 @@ def test_curate_copies_finished_cells_without_checkpoints_and_reports_them(inter
     assert os.path.getmtime(out / done[0].name / "evaluations.csv") == stamp
 
 
+def test_adopt_brings_curated_cells_back_as_done_on_a_new_machine(finished, tmp_path, capsys):
+    """--adopt DIR (the way back from --curate DIR, e.g. on a new machine whose study folder is gone):
+    every cell DIR holds finished at the study's budget is copied into the study's folder and counts
+    as done (the study skips it); run again, it is left as it is. A raised budget adopts nothing (a
+    curated cell has no checkpoints to grow from), each cell said in a line; a copy of another config,
+    or a folder without the study's cells: one line, exit 2, nothing copied."""
+    path, s, _, _ = finished
+    curated = tmp_path / "curated"
+    assert study.main([path, "--curate", str(curated), "--mixed-precision"]) == 0
+    new = tmp_path / "new-machine"
+    capsys.readouterr()
+    assert study.main([path, "--out-dir", str(new), "--adopt", str(curated)]) == 0
+    out = capsys.readouterr().out
+    moved = study.load(path, str(new))
+    for c, old in zip(moved.cells, s.cells):
+        assert f"{c.name}: adopted from {curated / c.name}" in out
+        assert study.cell_state(c).state == "done"
+        np.testing.assert_array_equal(np.load(os.path.join(c.run_dir, "evaluations.npy")),
+                                      np.load(os.path.join(old.run_dir, "evaluations.npy")))
+        assert not os.path.exists(c.run_dir + ".partial") and "checkpoints" not in os.listdir(c.run_dir)
+    stamp = os.path.getmtime(os.path.join(moved.cells[0].run_dir, "evaluations.csv"))
+    assert study.main([path, "--out-dir", str(new), "--adopt", str(curated)]) == 0
+    assert capsys.readouterr().out.count("already in") == 3
+    assert os.path.getmtime(os.path.join(moved.cells[0].run_dir, "evaluations.csv")) == stamp
+    # a raised budget: nothing to adopt, every cell named with the step its copy stopped at
+    raised = write_study(str(tmp_path), {**TINY, "out_dir": str(tmp_path / "raised"), "total_steps": 3000}, "raised.yaml")
+    assert study.main([raised, "--adopt", str(curated)]) == 0
+    out = capsys.readouterr().out
+    assert out.count("stopped at step 2000 of 3000 and has no checkpoints to grow from; not adopted") == 3
+    assert not os.path.exists(tmp_path / "raised")
+    # another config, or no cell of the study: one line, exit 2, nothing copied
+    other = write_study(str(tmp_path), {**TINY, "out_dir": str(tmp_path / "other"), "seeds": 3}, "other.yaml")
+    for args, message in [([other, "--adopt", str(curated)], "was run with seeds=2, cell hopper_swim of study tiny gives seeds=3"),
+                          ([path, "--out-dir", str(tmp_path / "x"), "--adopt", str(tmp_path / "nothing")],
+                           "holds none of study tiny's cells (hopper_swim, hopper_relu, hopper_swish)")]:
+        assert study.main(args) == 2
+        err = capsys.readouterr().err
+        assert len(err.strip().splitlines()) == 1 and message in err, err
+    assert not os.path.exists(tmp_path / "other") and not os.path.exists(tmp_path / "x")
+
+
 def test_a_curated_report_shows_uncopied_cells_as_they_stand_where_the_study_trains(interrupted, tmp_path):
     """--curate: a cell not finished (so not copied) is listed with its state and step in the
     study's own out_dir ("started", its checkpoint's step), not as "left" from the copies' folder."""

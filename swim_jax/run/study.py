@@ -1,4 +1,4 @@
-"""A whole study, resumable: ``python -m swim_jax.study STUDY.yaml [--parallel N | --status | --report DIR | --curate DIR | --slurm]``.
+"""A whole study, resumable: ``python -m swim_jax.study STUDY.yaml [--parallel N | --status | --report DIR | --curate DIR | --adopt DIR | --slurm]``.
 
 A study file names a grid of runs ("cells"): configs (``envs`` × ``activations``, i.e.
 ``configs/<env>_<activation>.yaml``, or an explicit ``configs`` list), optional further ``grid``
@@ -623,6 +623,43 @@ def curate(study: Study, out: str, bench: list[str], log: Callable[[str], None] 
                         mixed_precision=mixed_precision)
 
 
+def adopt(study: Study, src: str, log: Callable[[str], None] = print) -> int:
+    """``--adopt DIR``: the way back from ``--curate DIR`` (a new machine, a wiped scratch folder):
+    copy every cell that ``DIR`` holds finished at this study's budget into the study's folder, so the
+    study skips it instead of training it again. A cell already in the study's folder is left as it
+    is. A copy that stopped short of the budget is not copied, in one line each (a curated cell has no
+    checkpoints to grow from, so the study trains that cell from step 0). Refused before anything is
+    copied (:class:`StudyError`): ``DIR`` holds none of the study's cells, or a copy's config.yaml is
+    not its cell's (the rule of a resume, :func:`swim_jax.config.first_difference`)."""
+    import shutil
+
+    found = [c for c in study.cells if os.path.isfile(os.path.join(src, c.name, "config.yaml"))]
+    if not found:
+        raise StudyError(f"--adopt {src}: holds none of study {study.name}'s cells "
+                         f"({', '.join(c.name for c in study.cells)}), each a folder with its config.yaml")
+    copies = [dataclasses.replace(c, run_dir=os.path.join(src, c.name)) for c in found]
+    for copy in copies:
+        diff = cfgmod.first_difference(copy.cfg, copy.run_dir)
+        if diff:
+            k, recorded, wanted = diff
+            raise StudyError(f"--adopt {src}: {copy.run_dir} was run with {k}={recorded!r}, cell {copy.name} of "
+                             f"study {study.name} gives {k}={wanted!r}; nothing adopted")
+    for c, copy in zip(found, copies):
+        if os.path.exists(c.run_dir):
+            log(f"{c.name}: already in {study.out_dir}; left as it is")
+            continue
+        if not _is_done(copy):
+            last = _last_evaluation(copy.run_dir)
+            log(f"{c.name}: {copy.run_dir} stopped at step {last[0] if last else 0} of {c.cfg.total_steps} and has no "
+                "checkpoints to grow from; not adopted (the study trains it from step 0)")
+            continue
+        os.makedirs(study.out_dir, exist_ok=True)
+        shutil.copytree(copy.run_dir, c.run_dir + ".partial", ignore=shutil.ignore_patterns(LOCK_FILE))
+        os.replace(c.run_dir + ".partial", c.run_dir)
+        log(f"{c.name}: adopted from {copy.run_dir} (done at step {c.cfg.total_steps}; the study skips it)")
+    return 0
+
+
 def slurm_script(study: Study, cpus: int, hours: int, python: str = sys.executable) -> str:
     """A SLURM job-array script, one task per cell, each task the cell's resumable command."""
     repo = provenance.SOURCE_DIR
@@ -658,6 +695,9 @@ def _parser():
     what.add_argument("--status", action="store_true", help="print where every cell stands and the ETA")
     what.add_argument("--report", metavar="DIR", help="write the report over the finished cells to DIR")
     what.add_argument("--curate", metavar="DIR", help="copy finished cells (no checkpoints) to DIR and report them in DIR/report")
+    what.add_argument("--adopt", metavar="DIR",
+                      help="copy the cells DIR (a --curate folder) holds finished at this budget into the study's "
+                           "folder, so the study skips them (a new machine)")
     what.add_argument("--slurm", action="store_true", help="print a SLURM job-array script (one task per cell)")
     what.add_argument("--cell", metavar="NAME|INDEX", help="train (resume, skip) this one cell in this process")
     p.add_argument("--parallel", type=int, default=None,
@@ -705,6 +745,8 @@ def main(argv: list[str] | None = None) -> int:
                                 mixed_precision=args.mixed_precision)
         if args.curate:
             return curate(study, args.curate, args.bench, mixed_precision=args.mixed_precision)
+        if args.adopt:
+            return adopt(study, args.adopt)
         if args.cell is not None:
             cell = study.cell(args.cell)
             return run_cell(cell, log=lambda s: print(s, flush=True))
