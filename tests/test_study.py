@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import filecmp
 import json
 import os
 import subprocess
@@ -350,13 +351,17 @@ def test_curate_copies_finished_cells_without_checkpoints_and_reports_them(inter
 def test_adopt_brings_curated_cells_back_as_done_on_a_new_machine(finished, tmp_path, capsys):
     """--adopt DIR (the way back from --curate DIR, e.g. on a new machine whose study folder is gone):
     every cell DIR holds finished at the study's budget is copied into the study's folder and counts
-    as done (the study skips it); run again, it is left as it is. A raised budget adopts nothing (a
-    curated cell has no checkpoints to grow from), each cell said in a line; a copy of another config,
-    or a folder without the study's cells: one line, exit 2, nothing copied."""
+    as done (the study skips it), also where a copy cut short left a `.partial` folder; run again, it
+    is left as it is. A raised budget adopts nothing (a curated cell has no checkpoints to grow from),
+    each cell said in a line; a copy of another config, or a folder without the study's cells: one
+    line, exit 2, nothing copied."""
     path, s, _, _ = finished
     curated = tmp_path / "curated"
     assert study.main([path, "--curate", str(curated), "--mixed-precision"]) == 0
     new = tmp_path / "new-machine"
+    cut_short = new / f"{s.cells[0].name}.partial"  # what a copy stopped midway leaves: not a cell, not a block
+    os.makedirs(cut_short)
+    (cut_short / "evaluations.csv").write_text("step,mean\n")
     capsys.readouterr()
     assert study.main([path, "--out-dir", str(new), "--adopt", str(curated)]) == 0
     out = capsys.readouterr().out
@@ -367,6 +372,7 @@ def test_adopt_brings_curated_cells_back_as_done_on_a_new_machine(finished, tmp_
         np.testing.assert_array_equal(np.load(os.path.join(c.run_dir, "evaluations.npy")),
                                       np.load(os.path.join(old.run_dir, "evaluations.npy")))
         assert not os.path.exists(c.run_dir + ".partial") and "checkpoints" not in os.listdir(c.run_dir)
+        assert filecmp.cmp(os.path.join(c.run_dir, "evaluations.csv"), curated / c.name / "evaluations.csv", shallow=False)
     stamp = os.path.getmtime(os.path.join(moved.cells[0].run_dir, "evaluations.csv"))
     assert study.main([path, "--out-dir", str(new), "--adopt", str(curated)]) == 0
     assert capsys.readouterr().out.count("already in") == 3

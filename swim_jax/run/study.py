@@ -595,14 +595,24 @@ def write_report(study: Study, out: str, bench: list[str], force: bool, log: Cal
 CURATE_SKIPS = ("checkpoints", LOCK_FILE)  # what a curated cell leaves out (resumable state, the lock)
 
 
+def _copy_cell(src: str, dst: str, skips: tuple[str, ...]) -> None:
+    """Copy the run folder ``src`` to ``dst`` (which must not exist) whole or not at all: into
+    ``dst.partial`` first, then one ``os.replace``, so a copy cut short never leaves a ``dst`` that the
+    study would read as a cell. A ``dst.partial`` left by such a copy is removed first."""
+    import shutil
+
+    partial = dst + ".partial"
+    shutil.rmtree(partial, ignore_errors=True)
+    shutil.copytree(src, partial, ignore=shutil.ignore_patterns(*skips))
+    os.replace(partial, dst)
+
+
 def curate(study: Study, out: str, bench: list[str], log: Callable[[str], None] = print,
            mixed_precision: bool = False) -> int:
     """``--curate DIR``: copy every finished cell not yet in ``DIR`` to ``DIR/<cell>/`` without its
     checkpoints (evaluations, metrics, final policies, config, timing, provenance, train.log stay),
     then write the report over all cells in ``DIR`` to ``DIR/report/`` (rewritten each time: it is
     this command's own output). Cells already in ``DIR`` are left as they are."""
-    import shutil
-
     done = [s.cell for s in (cell_state(c) for c in study.cells) if s.state == "done"]
     if not done:
         raise StudyError(f"no finished cell in {study.out_dir} yet; --status shows where the cells stand")
@@ -612,8 +622,7 @@ def curate(study: Study, out: str, bench: list[str], log: Callable[[str], None] 
         if os.path.exists(dst):
             log(f"{c.name}: already in {out}; left as it is")
             continue
-        shutil.copytree(c.run_dir, dst + ".partial", ignore=shutil.ignore_patterns(*CURATE_SKIPS))
-        os.replace(dst + ".partial", dst)
+        _copy_cell(c.run_dir, dst, CURATE_SKIPS)
         log(f"{c.name}: copied to {dst} (without {', '.join(CURATE_SKIPS)})")
     curated = load(study.path, out)
     command = ["python", "-m", "swim_jax.study", shown_path(study.path), "--out-dir", study.out_dir,
@@ -631,8 +640,6 @@ def adopt(study: Study, src: str, log: Callable[[str], None] = print) -> int:
     checkpoints to grow from, so the study trains that cell from step 0). Refused before anything is
     copied (:class:`StudyError`): ``DIR`` holds none of the study's cells, or a copy's config.yaml is
     not its cell's (the rule of a resume, :func:`swim_jax.config.first_difference`)."""
-    import shutil
-
     found = [c for c in study.cells if os.path.isfile(os.path.join(src, c.name, "config.yaml"))]
     if not found:
         raise StudyError(f"--adopt {src}: holds none of study {study.name}'s cells "
@@ -654,8 +661,7 @@ def adopt(study: Study, src: str, log: Callable[[str], None] = print) -> int:
                 "checkpoints to grow from; not adopted (the study trains it from step 0)")
             continue
         os.makedirs(study.out_dir, exist_ok=True)
-        shutil.copytree(copy.run_dir, c.run_dir + ".partial", ignore=shutil.ignore_patterns(LOCK_FILE))
-        os.replace(c.run_dir + ".partial", c.run_dir)
+        _copy_cell(copy.run_dir, c.run_dir, (LOCK_FILE,))
         log(f"{c.name}: adopted from {copy.run_dir} (done at step {c.cfg.total_steps}; the study skips it)")
     return 0
 

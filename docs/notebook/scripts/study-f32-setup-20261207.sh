@@ -1,7 +1,8 @@
 #!/bin/bash
 # The float32 study (issue 48) on a machine whose ~/swim-runs is gone: venv, worktrees, study files,
 # the finished cells adopted from runs/curated (so they are not trained again), then the driver.
-# Idempotent: on a machine that has some of it, it does the rest.
+# Idempotent: on a machine that has some of it, it does the rest. Since 2026-12-07 08:50 it starts
+# run-f32-g (the 300k cells before the 1M cells; the script says why).
 #   bash docs/notebook/scripts/study-f32-setup-20261207.sh [--no-start]
 set -euo pipefail
 start=${1:-start}
@@ -15,8 +16,8 @@ for wt in src:ccc3cbb src-b:44af3ff src-t2:644b99b; do
 done
 [ -e "$S/venv" ] || ln -s "$R/.venv" "$S/venv"   # one venv: the lock's versions are the same at every study commit
 cp "$R"/configs/studies/*.yaml "$S/"
-running=$(pgrep -f run-f32-f.sh || true)
-[ -n "$running" ] || cp "$R/docs/notebook/scripts/run-f32-f-20261207.sh" "$S/run-f32-f.sh"  # (never under a running driver)
+running=$(pgrep -f "run-f32-[a-z]\.sh" || true)
+[ -n "$running" ] || cp "$R/docs/notebook/scripts/run-f32-g-20261207.sh" "$S/run-f32-g.sh"  # (never under a running driver)
 cd "$R"
 for pair in f32-table2:study-f32 f32-walker-v4:study-f32-walker-v4 f32-walker-1m:study-f32-walker-1m \
             f32-walker-relu-seeds5-9:study-f32-seeds5-9 f32-walker-v4-seeds5-9:study-f32-walker-v4-seeds5-9 \
@@ -26,5 +27,5 @@ for pair in f32-table2:study-f32 f32-walker-v4:study-f32-walker-v4 f32-walker-1m
 done
 [ "$start" = --no-start ] && exit 0
 [ -n "$running" ] && { echo "the driver runs already (pid $running)"; exit 0; }
-cd "$S" && nohup ./run-f32-f.sh >> "$HOME/swim-runs/study-f32.log" 2>&1 &
+cd "$S" && nohup ./run-f32-g.sh >> "$HOME/swim-runs/study-f32.log" 2>&1 &
 echo "driver started; log: ~/swim-runs/study-f32.log"
