@@ -371,6 +371,35 @@ def test_process_benchmarks_interleave_their_runs_and_report_rates(monkeypatch):
     assert res["median"] == {"1": 200.5, "2": 400.5} and res["ratio_vs_parallel_1"]["2"] == pytest.approx(400.5 / 200.5)
 
 
+def test_process_benchmark_commands_write_a_result_or_one_error_line(monkeypatch, tmp_path, capsys):
+    """bench processes / bench study's command lines: a result is printed as its table and written as
+    JSON (exit 0); a bad option is one line, exit 2, a failed run one line, exit 1, nothing written."""
+    from swim_jax.bench import processes, study
+
+    res = {"config": "cheetah_relu", "overrides": [], "seeds": 4, "cores": 2, "chunks": 2, "chunk_steps": 10, "rounds": 2,
+           "machine": {"cpu": "test"}, "env_steps_per_s": {p: [100.0, 120.0] for p in processes.PLACEMENTS},
+           "median": {p: 110.0 for p in processes.PLACEMENTS}, "ratio_vs_one_process": {p: 1.0 for p in processes.PLACEMENTS}}
+    monkeypatch.setattr(processes, "measure", lambda *a, **k: res)
+    out = tmp_path / "bench"
+    assert processes.main(["--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert processes.markdown(res) in printed and len(list(out.glob("processes-*.json"))) == 1
+    assert json.loads(next(out.glob("processes-*.json")).read_text()) == res
+
+    def fails(*a, **k):
+        raise RuntimeError("cell walker_relu: training exited with status 1")
+
+    for bench, args, status, message in [
+            (processes, ["--seeds", "0"], 2, "--seeds, --chunk-steps, --chunks and --rounds must be >= 1"),
+            (study, ["--parallel", "3", "--configs", "a,b"], 2, "--parallel 3 needs at least that many --configs, got 2"),
+            (study, ["--parallel", "1", "--configs", "a"], 1, "training exited with status 1")]:
+        monkeypatch.setattr(study, "measure", fails)
+        assert bench.main([*args, "--out", str(tmp_path / "none")]) == status
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and err[0].startswith("error: ") and message in err[0], err
+    assert not (tmp_path / "none").exists()
+
+
 def test_interleaved_chunk_ratios_advance_each_state_and_compare_within_rounds():
     """swim_jax.bench.train.interleaved_chunk_ratios (on the harness): every executable runs once per round with its own
     state and the round's first step (steps · round), states are advanced in place, and the

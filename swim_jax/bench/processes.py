@@ -25,7 +25,7 @@ import tempfile
 import time
 
 from swim_jax.io import cli_parser
-from swim_jax.io.bench_results import cpu_model, write_result
+from swim_jax.io.bench_results import cpu_model, measure_and_write
 from swim_jax.bench import timing
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -117,19 +117,13 @@ def markdown(res: dict) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
-    try:
+
+    def run() -> dict:
         if min(args.seeds, args.chunk_steps, args.chunks, args.rounds) < 1:
             raise ValueError("--seeds, --chunk-steps, --chunks and --rounds must be >= 1")
-        res = measure(args.config, args.seeds, args.chunk_steps, args.chunks, args.rounds, tuple(args.set))
-    except ValueError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
-    except RuntimeError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 1
-    print(markdown(res))
-    write_result(args.out, "processes", res)
-    return 0
+        return measure(args.config, args.seeds, args.chunk_steps, args.chunks, args.rounds, tuple(args.set))
+
+    return measure_and_write(run, markdown, args.out, "processes")
 
 
 if __name__ == "__main__":

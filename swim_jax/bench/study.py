@@ -24,7 +24,7 @@ import time
 import yaml
 
 from swim_jax.io import cli_parser
-from swim_jax.io.bench_results import cpu_model, write_result
+from swim_jax.io.bench_results import cpu_model, measure_and_write
 from swim_jax.bench import timing
 from swim_jax.bench.processes import REPO
 
@@ -115,23 +115,17 @@ def markdown(res: dict) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
-    try:
+
+    def run() -> dict:
         parallel = [int(x) for x in args.parallel.split(",")]
         configs = args.configs.split(",")
         if min(args.seeds, args.chunk_steps, args.chunks, args.rounds, *parallel) < 1:
             raise ValueError("--seeds, --chunk-steps, --chunks, --rounds and --parallel must be >= 1")
         if max(parallel) > len(configs):
             raise ValueError(f"--parallel {max(parallel)} needs at least that many --configs, got {len(configs)}")
-        res = measure(configs, args.seeds, parallel, args.chunk_steps, args.chunks, args.rounds, args.set)
-    except ValueError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
-    except RuntimeError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 1
-    print(markdown(res))
-    write_result(args.out, "study", res)
-    return 0
+        return measure(configs, args.seeds, parallel, args.chunk_steps, args.chunks, args.rounds, args.set)
+
+    return measure_and_write(run, markdown, args.out, "study")
 
 
 if __name__ == "__main__":

@@ -13,8 +13,10 @@ import json
 import math
 import os
 import subprocess
+import sys
 import time
 from dataclasses import dataclass
+from typing import Callable
 
 from swim_jax.io import hardware
 
@@ -44,6 +46,24 @@ def write_result(out_dir: str, prefix: str, result: dict, stamp: time.struct_tim
         json.dump(result, f, indent=1)
     print(f"wrote {path}")
     return path
+
+
+def measure_and_write(measure: Callable[[], dict], markdown: Callable[[dict], str], out_dir: str, prefix: str) -> int:
+    """The end of a benchmark command line: ``result = measure()``, then its markdown on stdout and its
+    JSON (:func:`write_result`); returns 0. ``measure`` raising ValueError (a bad option) or
+    RuntimeError (a timed run failed) prints ``error: <message>`` on stderr, writes nothing and
+    returns 2 or 1."""
+    try:
+        res = measure()
+    except ValueError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    except RuntimeError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 1
+    print(markdown(res))
+    write_result(out_dir, prefix, res)
+    return 0
 
 
 class BenchError(ValueError):
