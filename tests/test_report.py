@@ -285,6 +285,10 @@ def test_pooling_refuses_overlapping_seeds_and_different_hyperparameters(tmp_pat
     assert rc == 2 and "seed index 1" in err and dup in err and len(err.strip().splitlines()) == 1
     ok = write_run(tmp_path, "other_base", act="swim", returns=SWIM[:, :1], first_seed=1, seed=7)
     assert run_report(walker + [ok, "--out", tmp_path / "o2", "--n-boot", "200"], capsys)[0] == 0
+    # one seed trained alone without its padding lane (pad_single_seed: false, e.g. a 1M cell's last
+    # piece): placement, like lane_groups; pooled as a seed of the same experiment
+    alone = write_run(tmp_path, "alone", act="swim", returns=SWIM[:, :1], first_seed=6, pad_single_seed=False)
+    assert run_report(walker + [alone, "--out", tmp_path / "o5", "--n-boot", "200"], capsys)[0] == 0
     big = write_run(tmp_path, "big", act="swim", returns=SWIM[:, :1], first_seed=5, hidden=(256, 256))
     rc, _, err = run_report(walker + [big, "--out", tmp_path / "o3"], capsys)
     assert rc == 2 and "agent.hidden" in err and big in err

@@ -49,7 +49,8 @@ from swim_jax.agents.base import DEFAULT_KIND
 from swim_jax.agents.registry import learning_panels
 
 POOL_IGNORED_KEYS = frozenset({"seeds", "first_seed", "seed", "name", "out_dir", "keep_checkpoints",
-                               "shard_lanes", "host_devices", "lane_groups"})  # placement only, same experiment
+                               "shard_lanes", "host_devices", "lane_groups",
+                               "pad_single_seed"})  # placement only (at most float rounding), same experiment
 
 
 class RunError(ValueError):
