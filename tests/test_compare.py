@@ -107,6 +107,25 @@ def test_pairs_that_differ_beyond_the_compared_keys_or_bad_input_are_refused(set
     (tmp_path / "full" / "keep.txt").write_text("x")
     assert cell_pairs.main([a, b, "--out", str(tmp_path / "full")]) == 2
     assert "not an empty folder" in capsys.readouterr().err and os.listdir(tmp_path / "full") == ["keep.txt"]
+    assert cell_pairs.main([a, b, "--out", str(tmp_path / "full"), "--force"]) == 2  # not compare's file
+    assert "holds keep.txt, which compare does not write" in capsys.readouterr().err
+    assert os.listdir(tmp_path / "full") == ["keep.txt"]
+
+
+def test_force_rewrites_a_comparison_as_cells_finish(sets, tmp_path, capsys):
+    """--force: a folder holding only COMPARE.md and compare.json is written over with the new pairs
+    (the comparison rerun as a study's cells finish); without it, refused with one line, untouched."""
+    a, b = sets
+    out = tmp_path / "out"
+    assert cell_pairs.main([a, b, "--out", str(out), "--n-boot", "200"]) == 0
+    (out / "compare.json").write_text("{}")
+    assert cell_pairs.main([a, b, "--out", str(out), "--n-boot", "200"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--force rewrites a folder holding only COMPARE.md and compare.json" in err[0]
+    assert (out / "compare.json").read_text() == "{}"
+    assert cell_pairs.main([a, b, "--out", str(out), "--n-boot", "200", "--force"]) == 0
+    assert sorted(json.loads((out / "compare.json").read_text())["cells"]) == ["hopper_swim", "walker_swim"]
+    assert sorted(os.listdir(out)) == ["COMPARE.md", "compare.json"]
 
 
 def test_cells_still_short_of_the_step_are_left_out_and_listed(sets, tmp_path):

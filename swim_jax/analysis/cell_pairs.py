@@ -12,7 +12,8 @@ the report's) the difference of means A − B with its 95 % bootstrap CI and Wel
 (``stats.compare``), and one plain sentence: whether B's setting changes what TD3 learns in that
 cell, which it does when any score's difference passes the report's evidence rule (≥ 5 seeds each,
 Welch p < 0.05 and a CI that excludes 0). Writes ``COMPARE.md`` and ``compare.json`` into ``--out``
-(a new or empty folder; nothing is written on bad input).
+(a new or empty folder, or with ``--force`` one that holds only those two files: a comparison rerun
+as a study's cells finish; nothing is written on bad input).
 
 Exit status: 0 written; 2 bad input (one line on stderr).
 """
@@ -173,12 +174,14 @@ def parse_args(argv):
                                   formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("a", metavar="A_DIR", help="a folder of run folders (e.g. a study's out_dir)")
     p.add_argument("b", metavar="B_DIR", help="another, whose cells of the same names are compared with A's")
-    p.add_argument("--out", required=True, help="output folder (new or empty)")
+    p.add_argument("--out", required=True, help="output folder (new or empty, unless --force)")
     p.add_argument("--at-step", type=int, default=None, metavar="N", help="read every run at the budget of N steps")
     p.add_argument("--differ", action="append", default=None, metavar="KEY",
                    help=f"a config key the pairs may differ in (repeatable; default {', '.join(DIFFER)})")
     p.add_argument("--n-boot", type=int, default=10_000, help="bootstrap resamples (default 10000)")
     p.add_argument("--boot-seed", type=int, default=0, help="bootstrap RNG seed (default 0)")
+    p.add_argument("--force", action="store_true",
+                   help=f"rewrite a comparison: an --out holding only {' and '.join(OUT_FILES)} is written over")
     a = p.parse_args(argv)
     if a.n_boot < 100:
         p.error("--n-boot must be >= 100")
@@ -187,13 +190,33 @@ def parse_args(argv):
     return a
 
 
+OUT_FILES = ("COMPARE.md", "compare.json")  # all that compare writes
+
+
+def check_out(out: str, force: bool) -> None:
+    """``--out`` must be a new or empty folder, or (``force``) a folder holding only :data:`OUT_FILES`
+    as plain files; otherwise :class:`CompareError` naming what is in the way."""
+    if not os.path.exists(out):
+        return
+    if not os.path.isdir(out):
+        raise CompareError(f"--out {out} exists and is not a folder; nothing written")
+    entries = sorted(os.listdir(out))
+    if entries and not force:
+        raise CompareError(f"--out {out} exists and is not an empty folder; nothing written "
+                           f"(--force rewrites a folder holding only {' and '.join(OUT_FILES)})")
+    other = [e for e in entries if e not in OUT_FILES or not os.path.isfile(os.path.join(out, e))
+             or os.path.islink(os.path.join(out, e))]
+    if other:
+        raise CompareError(f"--out {out} holds {', '.join(other)}, which compare does not write; "
+                           f"--force rewrites only {' and '.join(OUT_FILES)}; nothing written")
+
+
 def main(argv=None) -> int:
     """CLI entry point; returns the exit status (0 written, 2 bad input with one line on stderr)."""
     argv = sys.argv[1:] if argv is None else list(argv)
     args = parse_args(argv)
     try:
-        if os.path.exists(args.out) and (not os.path.isdir(args.out) or os.listdir(args.out)):
-            raise CompareError(f"--out {args.out} exists and is not an empty folder; nothing written")
+        check_out(args.out, args.force)
         pairs, only_a, only_b = compare_sets(args.a, args.b, args.at_step, tuple(args.differ or DIFFER),
                                              args.n_boot, args.boot_seed)
     except CompareError as e:
