@@ -389,11 +389,11 @@ def test_process_benchmark_commands_write_a_result_or_one_error_line(monkeypatch
     def fails(*a, **k):
         raise RuntimeError("cell walker_relu: training exited with status 1")
 
+    monkeypatch.setattr(study, "measure", fails)
     for command, args, status, message in [
             (processes, ["--seeds", "0"], 2, "--seeds, --chunk-steps, --chunks and --rounds must be >= 1"),
             (study, ["--parallel", "3", "--configs", "a,b"], 2, "--parallel 3 needs at least that many --configs, got 2"),
             (study, ["--parallel", "1", "--configs", "a"], 1, "training exited with status 1")]:
-        monkeypatch.setattr(study, "measure", fails)
         assert command.main([*args, "--out", str(tmp_path / "none")]) == status
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and err[0].startswith("error: ") and message in err[0], err
