@@ -27,6 +27,7 @@ from swim_jax.agents.base import replace_fields
 from swim_jax.agents.td3 import TD3Config
 from swim_jax.activations import ACTIVATIONS, learnable_activations, validate_params
 from swim_jax.io import provenance, tensorboard_log
+from swim_jax.io.cli_parser import dotted_keys
 from swim_jax.io.schedule import Schedule
 
 
@@ -201,16 +202,6 @@ def _coerce(value, tp, path: str):
     raise ConfigError(f"{path}: expected {_type_name(tp)}, got {value!r} ({type(value).__name__})")
 
 
-def _flatten_paths(d: Mapping, prefix: str = "") -> dict:
-    out = {}
-    for k, v in d.items():
-        if isinstance(v, Mapping):
-            out.update(_flatten_paths(v, f"{prefix}{k}."))
-        else:
-            out[f"{prefix}{k}"] = v
-    return out
-
-
 def _coerce_sweep(value, path: str) -> dict[str, tuple[float, ...]]:
     """``{"agent": {"tau": [..]}}`` or ``{"agent.tau": [..]}`` → ``{"agent.tau": (floats)}``."""
     if value is None:
@@ -219,7 +210,7 @@ def _coerce_sweep(value, path: str) -> dict[str, tuple[float, ...]]:
         raise ConfigError(f"{path}: expected a mapping of config keys to value lists, e.g. "
                           f"{path}.agent.activation.k=[0.25,0.5,1], got {value!r}")
     out = {}
-    for key, values in _flatten_paths(value).items():
+    for key, values in dotted_keys(value).items():
         if not isinstance(values, (list, tuple)) or not values:
             raise ConfigError(f"{path}.{key}: expected a non-empty list of numbers such as [0.25,0.5,1], got {values!r}")
         out[key] = tuple(_coerce(v, float, f"{path}.{key}[{i}]") for i, v in enumerate(values))
@@ -535,7 +526,7 @@ def first_difference(want: Config, run_dir: str, ignored: frozenset = PLACEMENT_
         wanted["env"]["backend"] = (recorded.get("env") or {}).get("backend", "auto")
     if isinstance(recorded.get("total_steps"), int) and wanted["total_steps"] > recorded["total_steps"]:
         wanted["total_steps"] = recorded["total_steps"]  # a grown budget: a resume continues to it
-    flat_want, flat_recorded = (_flatten_paths({k: v for k, v in d.items() if k not in ignored})
+    flat_want, flat_recorded = (dotted_keys({k: v for k, v in d.items() if k not in ignored})
                                 for d in (wanted, recorded))
     diff = sorted(k for k in flat_want.keys() | flat_recorded.keys() if flat_want.get(k) != flat_recorded.get(k))
     return (diff[0], flat_recorded.get(diff[0]), flat_want.get(diff[0])) if diff else None

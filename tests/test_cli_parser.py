@@ -1,5 +1,6 @@
-"""The shared command-line pieces: a usage error is one line with exit 2, and an output file's check
-(exists / folder missing / --force) says the same thing in every command that writes one."""
+"""The shared command-line pieces: a usage error is one line with exit 2, an output file's check
+(exists / folder missing / --force) says the same thing in every command that writes one, and a
+nested config's leaves are named by the dotted paths overrides use."""
 
 import os
 
@@ -30,3 +31,9 @@ def test_output_file_problem(tmp_path):
         assert cli_parser.output_file_problem("--out", str(orphan), force) == (
             f"--out {orphan}: folder {tmp_path / 'no'} does not exist")
     assert taken.read_text() == "kept" and not os.path.exists(orphan.parent)
+
+
+def test_dotted_keys_names_every_leaf_by_its_override_path():
+    tree = {"td3": {"tau": 0.005, "net": {"hidden": [256, 256]}}, "seeds": 5, "env": {}}
+    assert cli_parser.dotted_keys(tree) == {"td3.tau": 0.005, "td3.net.hidden": [256, 256], "seeds": 5}
+    assert list(cli_parser.dotted_keys({"b": 1, "a": {"c": 2}})) == ["b", "a.c"]

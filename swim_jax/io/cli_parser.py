@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import os
+from typing import Mapping
 
 
 class ArgumentParser(argparse.ArgumentParser):
@@ -29,3 +30,16 @@ def output_file_problem(flag: str, path: str, force: bool | None = None) -> str 
     if not os.path.isdir(folder):
         return f"{flag} {path}: folder {folder} does not exist"
     return None
+
+
+def dotted_keys(tree: Mapping, prefix: str = "") -> dict:
+    """A nested mapping flattened to its leaves by dotted path, the names a command-line override
+    uses: ``{"td3": {"tau": 0.005}}`` → ``{"td3.tau": 0.005}``. A leaf is any value that is not a
+    mapping (a list stays one leaf); keys keep their order."""
+    out = {}
+    for key, value in tree.items():
+        if isinstance(value, Mapping):
+            out.update(dotted_keys(value, f"{prefix}{key}."))
+        else:
+            out[f"{prefix}{key}"] = value
+    return out

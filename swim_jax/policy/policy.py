@@ -51,6 +51,7 @@ import yaml
 
 from swim_jax.policy import activations as activations_np
 from swim_jax.io import provenance
+from swim_jax.io.cli_parser import dotted_keys
 
 FINAL = "final_policy.npz"
 CHECKPOINTS = "checkpoints"
@@ -519,20 +520,10 @@ def _read_final(path: str, names: tuple[str, ...], seeds: int, pos: int) -> dict
 def _grid(cfg: Mapping, where: str) -> list[dict[str, float]]:
     """The sweep's points in lane order (the first key varying slowest), as swim_jax.config makes them."""
     try:
-        sweep = {k: [float(v) for v in vs] for k, vs in _flat_sweep(cfg["sweep"]).items()}
+        sweep = {k: [float(v) for v in vs] for k, vs in dotted_keys(cfg["sweep"]).items()}
     except (TypeError, ValueError, AttributeError) as e:
         raise PolicyError(f"{where}/config.yaml: invalid sweep ({_one_line(e)})") from None
     return [dict(zip(sweep, combo)) for combo in itertools.product(*sweep.values())]
-
-
-def _flat_sweep(d: Mapping, prefix: str = "") -> dict:
-    out = {}
-    for k, v in d.items():
-        if isinstance(v, Mapping):
-            out.update(_flat_sweep(v, f"{prefix}{k}."))
-        else:
-            out[f"{prefix}{k}"] = v
-    return out
 
 
 def _point_values(path: str) -> dict[str, float] | None:

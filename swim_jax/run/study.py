@@ -173,7 +173,7 @@ def _overrides(path: str, value, key: str) -> dict[str, Any]:
         return {}
     if not isinstance(value, Mapping):
         raise StudyError(f"{path}: {key} must be a mapping of config keys to values, e.g. {{env.backend: mujoco}}")
-    flat = cfgmod._flatten_paths(value)
+    flat = cli_parser.dotted_keys(value)
     for k in flat:
         if k.split(".")[0] in SET_BY_STUDY:
             raise StudyError(f"{path}: {key}.{k} is set by the study itself (top-level seeds/total_steps/out_dir; "
