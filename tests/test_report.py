@@ -464,6 +464,25 @@ def test_figure4_colours_distinct_for_any_number_of_curves(tmp_path, capsys):
         assert colours.count(reserved) == 1, (reserved, colours)
 
 
+def test_figure4_legend_counts_seeds_in_words(tmp_path, capsys, monkeypatch):
+    """A curve's legend label says how many seeds it averages: "1 seed", "2 seeds"."""
+    from swim_jax.analysis import report_figure
+
+    labels, save = [], report_figure._save
+
+    def save_and_read_legends(fig, paths):
+        labels.extend(t.get_text() for ax in fig.axes if ax.get_legend() for t in ax.get_legend().get_texts())
+        save(fig, paths)
+
+    monkeypatch.setattr(report_figure, "_save", save_and_read_legends)
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    paths = [write_run(runs, "swim", act="swim", returns=SWIM[:, :1]), write_run(runs, "swish", act="swish")]
+    rc, _, err = run_report(paths + ["--out", tmp_path / "out", "--n-boot", "200"], capsys)
+    assert rc == 0, err
+    assert labels[:2] == ["Swim (1 seed)", "Swish (2 seeds)"], labels
+
+
 def test_figure_curve_colours_function():
     from swim_jax.analysis.report_figure import COLORS, curve_colors
 
