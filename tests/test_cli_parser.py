@@ -34,6 +34,7 @@ def test_output_file_problem(tmp_path):
 
 
 def test_dotted_keys_names_every_leaf_by_its_override_path():
-    tree = {"td3": {"tau": 0.005, "net": {"hidden": [256, 256]}}, "seeds": 5, "env": {}}
-    assert cli_parser.dotted_keys(tree) == {"td3.tau": 0.005, "td3.net.hidden": [256, 256], "seeds": 5}
+    tree = {"agent": {"tau": 0.005, "activation": {"k": 0.5}, "hidden": [256, 256]}, "seeds": 5, "env": {}}
+    assert cli_parser.dotted_keys(tree) == {"agent.tau": 0.005, "agent.activation.k": 0.5, "agent.hidden": [256, 256],
+                                          "seeds": 5}
     assert list(cli_parser.dotted_keys({"b": 1, "a": {"c": 2}})) == ["b", "a.c"]

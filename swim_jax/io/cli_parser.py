@@ -34,7 +34,7 @@ def output_file_problem(flag: str, path: str, force: bool | None = None) -> str 
 
 def dotted_keys(tree: Mapping, prefix: str = "") -> dict:
     """A nested mapping flattened to its leaves by dotted path, the names a command-line override
-    uses: ``{"td3": {"tau": 0.005}}`` → ``{"td3.tau": 0.005}``. A leaf is any value that is not a
+    uses: ``{"agent": {"tau": 0.005}}`` → ``{"agent.tau": 0.005}``. A leaf is any value that is not a
     mapping (a list stays one leaf); keys keep their order."""
     out = {}
     for key, value in tree.items():
