@@ -132,6 +132,26 @@ def test_a_locked_cell_is_not_run_twice(interrupted):
     assert not os.path.exists(os.path.join(c.run_dir, "config.yaml"))
 
 
+def test_logged_to_file_appends_each_line_once(tmp_path):
+    """A cell trained by hand (stdout a terminal, a pipe, pytest's capture) appends its lines to
+    train.log; one whose stdout already is that file (the study's runner) does not write them twice."""
+    import io
+
+    path = tmp_path / study.LOG_FILE
+    printed = []
+    with study.logged_to_file(str(tmp_path), printed.append, stream=io.StringIO()) as log:
+        log("by hand")
+    assert printed == ["by hand"] and path.read_text() == "by hand\n"
+    with open(path, "a") as redirected:  # as run_study's Popen(stdout=...) leaves it
+        def to_stdout(line):
+            redirected.write(line + "\n")
+            redirected.flush()
+
+        with study.logged_to_file(str(tmp_path), to_stdout, stream=redirected) as log:
+            log("from the runner")
+    assert path.read_text() == "by hand\nfrom the runner\n"
+
+
 @pytest.fixture(scope="module")
 def finished(interrupted):
     """The study command run on the interrupted folder: (study file, study, its output)."""
@@ -167,7 +187,14 @@ def test_study_skips_resumes_and_starts(finished):
     first, second = (e["matmul_dtype"] for e in provenance.read(s.cells[1].run_dir))
     assert second == json.load(open(os.path.join(s.cells[1].run_dir, "timing.json")))["matmul_dtype"] != first
     assert f"warning: this stretch multiplies in {second}, the run's last one in {first}" in log1
-    assert "hopper_swish: starting" in open(os.path.join(s.cells[2].run_dir, study.LOG_FILE)).read()
+    log2 = open(os.path.join(s.cells[2].run_dir, study.LOG_FILE)).read()
+    assert "hopper_swish: starting" in log2
+    # the runner redirects a cell's output into its train.log: each line is there once, not twice
+    assert log2.count("hopper_swish: starting") == 1 and log2.count("step     1000/2000") == 1
+    # cell 0 was trained by hand (run_cell in this process, as --cell does): its lines went to its train.log
+    log0 = open(os.path.join(s.cells[0].run_dir, study.LOG_FILE)).read()
+    assert log0.count("hopper_swim: starting") == 1 and log0.count("step     2000/2000") == 1
+    assert "hopper_swim: done in" in log0
     assert [e["step"] for e in provenance.read(s.cells[2].run_dir)] == [0]
     for c in s.cells:
         ev = np.load(os.path.join(c.run_dir, "evaluations.npy"))

@@ -406,11 +406,33 @@ def _recorded_backend(c: Cell) -> Config:
     return dataclasses.replace(c.cfg, env=dataclasses.replace(c.cfg.env, backend=recorded))
 
 
+@contextlib.contextmanager
+def logged_to_file(run_dir: str, log: Callable[[str], None], stream=None):
+    """Yield ``log`` extended to append each line to the cell's ``train.log`` too, unless ``stream``
+    (default ``sys.stdout``) already writes into that file, as it does for a cell the study's
+    runner started (:func:`run_study` redirects its output there): each line lands in the file once."""
+    path = os.path.join(run_dir, LOG_FILE)
+    stream = sys.stdout if stream is None else stream
+    try:
+        same = os.path.exists(path) and os.path.samestat(os.fstat(stream.fileno()), os.stat(path))
+    except (AttributeError, OSError, ValueError):  # a stream without a file (a pipe is a file; StringIO is not)
+        same = False
+    if same:
+        yield log
+        return
+    with open(path, "a") as f:
+        def log_and_append(line: str) -> None:
+            log(line)
+            f.write(line + "\n")
+            f.flush()
+        yield log_and_append
+
+
 def run_cell(c: Cell, log: Callable[[str], None] = print) -> int:
     """Train cell ``c`` in this process: skip it when done or running elsewhere, resume it from its
-    newest checkpoint when started, else start it. Returns the exit status (0, or 3 on NaN/inf)."""
-    from swim_jax.run import train
-
+    newest checkpoint when started, else start it. Returns the exit status (0, or 3 on NaN/inf).
+    Once it trains, every line also goes to the cell's ``train.log`` (:func:`logged_to_file`), so a
+    cell run by hand (``--cell``, a SLURM task) keeps its log where the study's runner keeps it."""
     with cell_lock(c.run_dir) as held:
         if not held:
             log(f"{c.name}: already being trained by another process ({os.path.join(c.run_dir, LOCK_FILE)}); skipped")
@@ -418,15 +440,23 @@ def run_cell(c: Cell, log: Callable[[str], None] = print) -> int:
         if _is_done(c):
             log(f"{c.name}: done; skipped")
             return 0
-        resume = started(c)
-        log(f"{c.name}: {'resuming' if resume else 'starting'} in {c.run_dir}")
-        cfg = _recorded_backend(c) if resume else c.cfg
-        try:
-            res = train.run(cfg, c.run_dir, resume=resume, log=log, status=log)
-        except train.NonFiniteError as e:
-            log(f"error: {e}")
-            return 3
-        log(f"{c.name}: done in {fmt_duration(res.timing['wall_time_s'])}")
+        with logged_to_file(c.run_dir, log) as log_both:
+            return _train_cell(c, log_both)
+
+
+def _train_cell(c: Cell, log: Callable[[str], None]) -> int:
+    """:func:`run_cell`'s training, the lock held: resume ``c`` when started, else start it."""
+    from swim_jax.run import train
+
+    resume = started(c)
+    log(f"{c.name}: {'resuming' if resume else 'starting'} in {c.run_dir}")
+    cfg = _recorded_backend(c) if resume else c.cfg
+    try:
+        res = train.run(cfg, c.run_dir, resume=resume, log=log, status=log)
+    except train.NonFiniteError as e:
+        log(f"error: {e}")
+        return 3
+    log(f"{c.name}: done in {fmt_duration(res.timing['wall_time_s'])}")
     return 0
 
 
