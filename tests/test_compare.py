@@ -106,22 +106,28 @@ def test_pairs_that_differ_beyond_the_compared_keys_or_bad_input_are_refused(set
     (tmp_path / "full").mkdir()
     (tmp_path / "full" / "keep.txt").write_text("x")
     assert cell_pairs.main([a, b, "--out", str(tmp_path / "full")]) == 2
-    assert "not an empty folder" in capsys.readouterr().err and os.listdir(tmp_path / "full") == ["keep.txt"]
-    assert cell_pairs.main([a, b, "--out", str(tmp_path / "full"), "--force"]) == 2  # not compare's file
-    assert "holds keep.txt, which compare does not write" in capsys.readouterr().err
-    assert os.listdir(tmp_path / "full") == ["keep.txt"]
+    assert "exists and is not empty" in capsys.readouterr().err and os.listdir(tmp_path / "full") == ["keep.txt"]
+    # --force: compare's two files are written beside what is there, which stays (the rule of every --out)
+    assert cell_pairs.main([a, b, "--out", str(tmp_path / "full"), "--force", "--n-boot", "200"]) == 0
+    assert sorted(os.listdir(tmp_path / "full")) == ["COMPARE.md", "compare.json", "keep.txt"]
+    assert (tmp_path / "full" / "keep.txt").read_text() == "x"
+    (tmp_path / "dir").mkdir()
+    (tmp_path / "dir" / "COMPARE.md").mkdir()  # in the way even with --force: refused, nothing written
+    assert cell_pairs.main([a, b, "--out", str(tmp_path / "dir"), "--force", "--n-boot", "200"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "COMPARE.md is a directory" in err[0] and os.listdir(tmp_path / "dir") == ["COMPARE.md"]
 
 
 def test_force_rewrites_a_comparison_as_cells_finish(sets, tmp_path, capsys):
-    """--force: a folder holding only COMPARE.md and compare.json is written over with the new pairs
-    (the comparison rerun as a study's cells finish); without it, refused with one line, untouched."""
+    """--force: COMPARE.md and compare.json are written over with the new pairs (the comparison
+    rerun as a study's cells finish); without it, refused with one line, untouched."""
     a, b = sets
     out = tmp_path / "out"
     assert cell_pairs.main([a, b, "--out", str(out), "--n-boot", "200"]) == 0
     (out / "compare.json").write_text("{}")
     assert cell_pairs.main([a, b, "--out", str(out), "--n-boot", "200"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "--force rewrites a folder holding only COMPARE.md and compare.json" in err[0]
+    assert len(err) == 1 and "use --force to replace COMPARE.md, compare.json there" in err[0]
     assert (out / "compare.json").read_text() == "{}"
     assert cell_pairs.main([a, b, "--out", str(out), "--n-boot", "200", "--force"]) == 0
     assert sorted(json.loads((out / "compare.json").read_text())["cells"]) == ["hopper_swim", "walker_swim"]

@@ -259,7 +259,7 @@ def test_corrupt_run_folder_exit_2_one_line_nothing_written(tmp_path, walker, ca
     assert len(err.strip().splitlines()) == 1 and err.startswith("report: error: ")
     assert ("bad" in err) or ("nope" in err)
     assert not out.exists()
-    assert [p for p in os.listdir(tmp_path) if p.startswith(".report-")] == []
+    assert [p for p in os.listdir(tmp_path) if p.startswith(".")] == []  # no temporary folder left
 
 
 def test_parent_folder_of_runs_gets_a_hint(tmp_path, walker, capsys):
@@ -505,7 +505,7 @@ def test_out_empty_string_is_refused(tmp_path, walker, capsys, monkeypatch):
     rc, _, err = run_report(walker + ["--out", "", "--n-boot", "200"], capsys)
     assert rc == 2 and _one_error_line(err), err
     assert "--out is empty" in err
-    assert sorted(os.listdir(tmp_path.parent)) == before  # no .report-* folder next to the cwd
+    assert sorted(os.listdir(tmp_path.parent)) == before  # no temporary (.out-*) folder next to the cwd
     assert sorted(os.listdir(tmp_path)) == ["runs"]
 
 
@@ -516,7 +516,7 @@ def test_out_dangling_symlink_is_refused(tmp_path, walker, capsys):
     assert rc == 2 and _one_error_line(err), err
     assert "dangling symbolic link" in err and str(link) in err
     assert link.is_symlink() and not (tmp_path / "gone").exists()
-    assert [p for p in os.listdir(tmp_path) if p.startswith(".report-")] == []
+    assert [p for p in os.listdir(tmp_path) if p.startswith(".")] == []  # no temporary folder left
     # a link to an existing empty folder is a valid --out
     (tmp_path / "real").mkdir()
     ok = tmp_path / "ok"
@@ -548,7 +548,7 @@ def test_force_refuses_a_directory_named_report_md_and_changes_nothing(tmp_path,
     assert "REPORT.md" in err and "directory" in err
     assert _snapshot(out) == before  # the figures were not replaced
     assert (out / "REPORT.md" / "notes.txt").read_text() == "precious"
-    assert [p for p in os.listdir(tmp_path) if p.startswith(".report-")] == []
+    assert [p for p in os.listdir(tmp_path) if p.startswith(".")] == []  # no temporary folder left
 
 
 def test_force_is_all_or_nothing_when_a_replacement_fails(tmp_path, walker, capsys, monkeypatch):
@@ -573,7 +573,7 @@ def test_force_is_all_or_nothing_when_a_replacement_fails(tmp_path, walker, caps
     assert rc == 2 and _one_error_line(err), err
     assert "No space left on device" in err
     assert _snapshot(out) == before  # everything restored, the stale sweep figures too
-    assert [p for p in os.listdir(tmp_path) if p.startswith(".report-")] == []
+    assert [p for p in os.listdir(tmp_path) if p.startswith(".")] == []  # no temporary folder left
 
 
 def test_force_removes_stale_sweep_figures(tmp_path, walker, capsys):

@@ -11,9 +11,10 @@ Per pair and per-seed score (*max*, *final*, *auc*: ``swim_jax.analysis.stats.pe
 the report's) the difference of means A − B with its 95 % bootstrap CI and Welch's test
 (``stats.compare``), and one plain sentence: whether B's setting changes what TD3 learns in that
 cell, which it does when any score's difference passes the report's evidence rule (≥ 5 seeds each,
-Welch p < 0.05 and a CI that excludes 0). Writes ``COMPARE.md`` and ``compare.json`` into ``--out``
-(a new or empty folder, or with ``--force`` one that holds only those two files: a comparison rerun
-as a study's cells finish; nothing is written on bad input).
+Welch p < 0.05 and a CI that excludes 0). Writes ``COMPARE.md`` and ``compare.json`` into ``--out``,
+all or nothing, by the rule of every ``--out`` (swim_jax/io/output_folder.py): a new or empty folder,
+or with ``--force`` any folder, where those two files are replaced (a comparison rerun as a study's
+cells finish) and other files stay; nothing is written on bad input.
 
 Exit status: 0 written; 2 bad input (one line on stderr).
 """
@@ -29,7 +30,7 @@ from dataclasses import dataclass
 
 from swim_jax.analysis import stats
 from swim_jax.analysis.runs_io import POOL_IGNORED_KEYS, Run, RunError, flat_config, load_run, numerics
-from swim_jax.io import cli_parser
+from swim_jax.io import cli_parser, output_folder
 
 SCORES = ("max", "final", "auc")
 DIFFER = ("matmul_dtype", "precision")
@@ -181,7 +182,7 @@ def parse_args(argv):
     p.add_argument("--n-boot", type=int, default=10_000, help="bootstrap resamples (default 10000)")
     p.add_argument("--boot-seed", type=int, default=0, help="bootstrap RNG seed (default 0)")
     p.add_argument("--force", action="store_true",
-                   help=f"rewrite a comparison: an --out holding only {' and '.join(OUT_FILES)} is written over")
+                   help=f"rewrite a comparison: {' and '.join(OUT_FILES)} in --out are replaced, other files stay")
     a = p.parse_args(argv)
     if a.n_boot < 100:
         p.error("--n-boot must be >= 100")
@@ -193,42 +194,20 @@ def parse_args(argv):
 OUT_FILES = ("COMPARE.md", "compare.json")  # all that compare writes
 
 
-def check_out(out: str, force: bool) -> None:
-    """``--out`` must be a new or empty folder, or (``force``) a folder holding only :data:`OUT_FILES`
-    as plain files; otherwise :class:`CompareError` naming what is in the way."""
-    if not os.path.exists(out):
-        return
-    if not os.path.isdir(out):
-        raise CompareError(f"--out {out} exists and is not a folder; nothing written")
-    entries = sorted(os.listdir(out))
-    if entries and not force:
-        raise CompareError(f"--out {out} exists and is not an empty folder; nothing written "
-                           f"(--force rewrites a folder holding only {' and '.join(OUT_FILES)})")
-    other = [e for e in entries if e not in OUT_FILES or not os.path.isfile(os.path.join(out, e))
-             or os.path.islink(os.path.join(out, e))]
-    if other:
-        raise CompareError(f"--out {out} holds {', '.join(other)}, which compare does not write; "
-                           f"--force rewrites only {' and '.join(OUT_FILES)}; nothing written")
-
-
 def main(argv=None) -> int:
     """CLI entry point; returns the exit status (0 written, 2 bad input with one line on stderr)."""
     argv = sys.argv[1:] if argv is None else list(argv)
     args = parse_args(argv)
     try:
-        check_out(args.out, args.force)
+        output_folder.check(args.out, args.force, OUT_FILES)  # before the (slower) bootstrap, and again when writing
         pairs, only_a, only_b = compare_sets(args.a, args.b, args.at_step, tuple(args.differ or DIFFER),
                                              args.n_boot, args.boot_seed)
-    except CompareError as e:
+        md, data = render(pairs, only_a, only_b, "python -m swim_jax.compare " + " ".join(argv))
+        output_folder.write(args.out, {"COMPARE.md": md, "compare.json": json.dumps(data, indent=1) + "\n"},
+                            args.force, OUT_FILES)
+    except (CompareError, output_folder.OutputFolderError) as e:
         print(f"compare: error: {e}", file=sys.stderr)
         return 2
-    md, data = render(pairs, only_a, only_b, "python -m swim_jax.compare " + " ".join(argv))
-    os.makedirs(args.out, exist_ok=True)
-    with open(os.path.join(args.out, "COMPARE.md"), "w") as f:
-        f.write(md)
-    with open(os.path.join(args.out, "compare.json"), "w") as f:
-        json.dump(data, f, indent=1)
-        f.write("\n")
     print(md.rsplit("\n\n", 2)[-2] if "\n\n" in md else md)
     print(f"compare: wrote COMPARE.md, compare.json to {args.out}")
     return 0

@@ -16,9 +16,8 @@ have a ``metrics.csv``; older run folders without one report as before),
 ``sweep.png`` and ``sweep.svg`` (when a parameter was swept). DIR must not exist or be empty unless
 ``--force``: then only those files are replaced, and those of them this report does not write (a
 sweep figure of an earlier report) are removed; other files stay. Everything is computed before
-anything is written, and the output appears all or nothing: a new DIR is a completed temporary
-folder renamed into place; in an existing DIR the old files are moved aside, the new ones moved in,
-and on any failure the old ones are put back.
+anything is written, and the output appears all or nothing (swim_jax/io/output_folder.py, the rule
+every ``--out DIR`` of the tool follows).
 
 Exit status: 0 done; 2 bad input (missing/corrupt run folder or bench file, incompatible runs, bad
 arguments, unusable --out, non-empty --out without --force): one line on stderr, nothing written.
@@ -31,7 +30,6 @@ import itertools
 import json
 import math
 import os
-import shutil
 import sys
 import tempfile
 from dataclasses import dataclass, field
@@ -39,7 +37,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import yaml
 
-from swim_jax.io import cli_parser
+from swim_jax.io import cli_parser, output_folder
 from swim_jax.analysis import aggregate, paper_ref, stats, tidy
 from swim_jax.io.bench_results import BenchError, load_bench, speedup_pct
 from swim_jax.analysis.report_figure import LEARNING_PANELS, display_name, figure4, group_colors, learning_figure, parameter_series, sweep_figure
@@ -717,105 +715,6 @@ def _figure_bytes(stem: str, draw) -> dict[str, bytes]:
     return out
 
 
-def check_out(out: str, force: bool) -> None:
-    """Raise :class:`ReportError` unless ``out`` can receive the report: a path to create, an empty
-    folder, or (``force``) a folder whose report files are plain files or symbolic links."""
-    if not out.strip():
-        raise ReportError("--out is empty; give the output folder (a new path, an empty folder, or a "
-                          "report folder with --force)")
-    if os.path.islink(out) and not os.path.exists(out):
-        raise ReportError(f"--out {out} is a dangling symbolic link (to {os.readlink(out)}); give a new "
-                          f"path, an existing folder, or a link to one")
-    if not os.path.exists(out):
-        return
-    if not os.path.isdir(out):
-        raise ReportError(f"--out {out} exists and is not a directory; give a new path or a folder")
-    try:
-        entries = os.listdir(out)
-    except OSError as e:
-        raise ReportError(f"--out {out}: cannot read the folder ({e.strerror})") from None
-    if entries and not force:
-        raise ReportError(f"--out {out} exists and is not empty; refusing to overwrite (use --force "
-                          f"to replace {', '.join(OUTPUT_FILES)} there)")
-    for name in OUTPUT_FILES:
-        p = os.path.join(out, name)
-        if os.path.lexists(p) and not (os.path.islink(p) or os.path.isfile(p)):
-            kind = "a directory" if os.path.isdir(p) else "not a regular file"
-            raise ReportError(f"--out {out}: {p} is {kind}; --force replaces only files named "
-                              f"{', '.join(OUTPUT_FILES)} (move it away or choose another --out)")
-
-
-def write_outputs(out: str, files: dict, force: bool) -> None:
-    """Write ``files`` into ``out``, all or nothing (see the module docstring); with ``force``, the
-    :data:`OUTPUT_FILES` not in ``files`` are removed from ``out``. Raises :class:`ReportError`."""
-    check_out(out, force)
-    exists = os.path.isdir(out)
-    try:
-        if exists:  # a temporary folder inside out: the renames stay on out's file system
-            tmp = tempfile.mkdtemp(prefix=".report-", dir=out)
-        else:
-            parent = os.path.dirname(os.path.abspath(out))
-            os.makedirs(parent, exist_ok=True)
-            tmp = tempfile.mkdtemp(prefix=".report-", dir=parent)
-            umask = os.umask(0)
-            os.umask(umask)
-            os.chmod(tmp, 0o777 & ~umask)
-    except OSError as e:
-        raise ReportError(f"--out {out}: cannot write ({_os_error(e)})") from None
-    try:
-        for name, content in files.items():
-            mode = "wb" if isinstance(content, bytes) else "w"
-            with open(os.path.join(tmp, name), mode, **({} if mode == "wb" else {"encoding": "utf-8"})) as f:
-                f.write(content)
-        if not exists:
-            os.rename(tmp, out)
-            tmp = None
-        else:
-            _swap_in(out, tmp, list(files))
-    except OSError as e:
-        raise ReportError(f"--out {out}: cannot write ({_os_error(e)}); nothing was "
-                          f"changed there") from None
-    finally:
-        if tmp is not None:
-            shutil.rmtree(tmp, ignore_errors=True)
-
-
-def _swap_in(out: str, tmp: str, names: list[str]) -> None:
-    """Move every existing :data:`OUTPUT_FILES` entry of ``out`` aside into ``tmp``, then the new
-    ``names`` from ``tmp`` into ``out``; on an OSError undo both steps and re-raise."""
-    aside = os.path.join(tmp, ".previous")
-    os.mkdir(aside)
-    moved, placed = [], []
-    try:
-        for name in OUTPUT_FILES:
-            if os.path.lexists(os.path.join(out, name)):
-                os.replace(os.path.join(out, name), os.path.join(aside, name))
-                moved.append(name)
-        for name in names:
-            os.replace(os.path.join(tmp, name), os.path.join(out, name))
-            placed.append(name)
-    except OSError:
-        for name in placed:
-            try:
-                os.remove(os.path.join(out, name))
-            except OSError:
-                pass
-        for name in moved:
-            try:
-                os.replace(os.path.join(aside, name), os.path.join(out, name))
-            except OSError:
-                pass
-        raise
-
-
-def _os_error(e: OSError) -> str:
-    """``strerror: path`` of an OSError, on one line."""
-    msg = e.strerror or str(e) or type(e).__name__
-    if e.filename:
-        msg += f": {e.filename}"
-    return " ".join(msg.split())[:300]
-
-
 def main(argv=None) -> int:
     """CLI entry point; returns the exit status (0 ok, 2 bad input with one line on stderr)."""
     argv = sys.argv[1:] if argv is None else list(argv)
@@ -823,10 +722,10 @@ def main(argv=None) -> int:
     command = "python -m swim_jax.report " + " ".join(argv)
     try:
         # refuse an unusable --out before the (slower) computation, and again when writing
-        check_out(args.out, args.force)
+        output_folder.check(args.out, args.force, OUTPUT_FILES)
         files = build(args, command)
-        write_outputs(args.out, files, args.force)
-    except ReportError as e:
+        output_folder.write(args.out, files, args.force, OUTPUT_FILES)
+    except (ReportError, output_folder.OutputFolderError) as e:
         print(f"report: error: {e}", file=sys.stderr)
         return 2
     for line in summary_lines(json.loads(files["results.json"])):

@@ -49,7 +49,7 @@ import yaml
 
 from swim_jax.io import cli_parser
 from swim_jax import config as cfgmod
-from swim_jax.io import provenance
+from swim_jax.io import output_folder, provenance
 from swim_jax.run.heartbeat import fmt_duration
 from swim_jax.config import Config, ConfigError
 
@@ -585,6 +585,7 @@ def write_report(study: Study, out: str, bench: list[str], force: bool, log: Cal
     at that budget (the report's ``--at-step``); ``mixed_precision``: the report's ``--mixed-precision``."""
     from swim_jax.analysis import report
 
+    owned = report.OUTPUT_FILES + ("study.json",)  # what --report writes into out (and --force replaces)
     states = [cell_state(c) for c in study.cells]
     if at_step is not None:  # a cell that reached the step counts as done at that budget
         states = [dataclasses.replace(s, state="done") if _reached(s.cell, at_step) else s for s in states]
@@ -599,9 +600,9 @@ def write_report(study: Study, out: str, bench: list[str], force: bool, log: Cal
     command = shlex.join(command or ["python", "-m", "swim_jax.study", shown_path(study.path),
                                      "--out-dir", study.out_dir, "--report", out, *extra])
     try:
-        report.check_out(out, force)
+        output_folder.check(out, force, owned)
         files = report.build(args, command)
-    except report.ReportError as e:
+    except (report.ReportError, output_folder.OutputFolderError) as e:
         raise StudyError(str(e)) from None
     text = files["REPORT.md"]
     head, sep, rest = text.partition("\n## ")
@@ -613,8 +614,8 @@ def write_report(study: Study, out: str, bench: list[str], force: bool, log: Cal
                    "run_dir": s.cell.run_dir, "provenance": provenance.read(s.cell.run_dir)} for s in states],
     }, indent=1) + "\n"
     try:
-        report.write_outputs(out, files, force)
-    except report.ReportError as e:
+        output_folder.write(out, files, force, owned)
+    except output_folder.OutputFolderError as e:
         raise StudyError(str(e)) from None
     for line in report.summary_lines(json.loads(files["results.json"])):
         log(line)
