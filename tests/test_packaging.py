@@ -149,7 +149,7 @@ def test_a_wheel_installed_elsewhere_ships_its_configs(tmp_path):
     p = _run([python, "-m", "swim_jax.study", "table2", "--out-dir", str(tmp_path / "study"), "--status"], cwd, env)
     assert p.returncode == 0 and "study table2: 0/12 done" in p.stdout, p.stdout + p.stderr
 
-    p = _run([python, "-c", "from swim_jax.analysis import published; print(published.anchor('Hopper-v5', 'sac', 300000).mean)"],
+    p = _run([python, "-c", "from swim_jax.analysis import published_curves; print(published_curves.anchor('Hopper-v5', 'sac', 300000).mean)"],
              cwd, env)  # the published curves ship as package data
     assert p.returncode == 0 and p.stdout.strip() == "3387.6597", p.stdout + p.stderr
     print(f"wheel built, installed and run in {time.perf_counter() - t0:.1f} s")

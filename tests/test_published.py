@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy import stats as sps
 
-from swim_jax.analysis import published, stats
+from swim_jax.analysis import published, published_curves, stats
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 WALKER_RELU = os.path.join(REPO, "runs", "curated", "study-table2", "walker_relu")
@@ -23,7 +23,7 @@ README_1M = {("Walker2d-v3", "TD3"): (3982.4, 274.5), ("Hopper-v3", "TD3"): (347
 
 @pytest.mark.parametrize("env,agent", sorted(README_1M))
 def test_extract_reproduces_the_readme_1m_table(env, agent):
-    points = json.load(open(published.DATA))["envs"][env][agent]
+    points = json.load(open(published_curves.DATA))["envs"][env][agent]
     best = max((p for p in points if p[0] <= 1_000_000), key=lambda p: p[1])
     assert (round(best[1], 1), round(best[2], 1)) == README_1M[env, agent]
 
@@ -31,14 +31,14 @@ def test_extract_reproduces_the_readme_1m_table(env, agent):
 def test_anchor_at_300k_and_its_sample_std():
     """300k env steps of ours are Tianshou's env_step 275k: its trainer counts from 0 after 25k random
     steps (10k for SAC), so both sides have taken the same env steps and updates there."""
-    a = published.anchor("Walker2d-v5", "td3", 300_000)
-    raw = {p[0]: p[1:] for p in json.load(open(published.DATA))["envs"]["Walker2d-v3"]["TD3"]}
+    a = published_curves.anchor("Walker2d-v5", "td3", 300_000)
+    raw = {p[0]: p[1:] for p in json.load(open(published_curves.DATA))["envs"]["Walker2d-v3"]["TD3"]}
     assert (a.env, a.n, a.step, a.mean) == ("Walker2d-v3", 10, 300_000, raw[275_000][0])
     assert a.sd == pytest.approx(raw[275_000][1] * math.sqrt(10 / 9), rel=1e-12)
     assert a.window_mean == pytest.approx(np.mean([raw[s][0] for s in range(225_000, 325_001, 5000)]), rel=1e-12)
-    sac = {p[0]: p[1] for p in json.load(open(published.DATA))["envs"]["Hopper-v3"]["SAC"]}
-    assert published.anchor("Hopper-v5", "sac", 300_000).mean == sac[290_000]
-    assert published.curve_points("Walker2d-v5", "td3")[0] == [25_000, *raw[0]]
+    sac = {p[0]: p[1] for p in json.load(open(published_curves.DATA))["envs"]["Hopper-v3"]["SAC"]}
+    assert published_curves.anchor("Hopper-v5", "sac", 300_000).mean == sac[290_000]
+    assert published_curves.curve_points("Walker2d-v5", "td3")[0] == [25_000, *raw[0]]
 
 
 @pytest.mark.parametrize("env,algorithm,step,fragment", [
@@ -48,8 +48,8 @@ def test_anchor_at_300k_and_its_sample_std():
     ("Walker2d-v5", "td3", 20_000, r"every 5,000 env steps from 25,000 to 1,275,000 \(its 25,000 random"),
 ])
 def test_anchor_refuses_what_is_not_published(env, algorithm, step, fragment):
-    with pytest.raises(published.PublishedError, match=fragment):
-        published.anchor(env, algorithm, step)
+    with pytest.raises(published_curves.PublishedError, match=fragment):
+        published_curves.anchor(env, algorithm, step)
 
 
 @pytest.mark.parametrize("mx,sx,nx,my,sy,ny", [(1390.6, 1121.3, 5, 1663.5, 469.0, 10), (46.5, 0.4, 5, 59.3, 18.2, 10),
@@ -80,7 +80,7 @@ def test_command_on_a_curated_cell(capsys, tmp_path):
     x = evals[300_000 // 5000]
     assert row["ours_mean"] == pytest.approx(x.mean(), rel=1e-12) and row["ours_n"] == x.size
     assert row["ours_sd"] == pytest.approx(x.std(ddof=1), rel=1e-12)
-    raw = {p[0]: p[1] for p in json.load(open(published.DATA))["envs"]["Walker2d-v3"]["TD3"]}
+    raw = {p[0]: p[1] for p in json.load(open(published_curves.DATA))["envs"]["Walker2d-v3"]["TD3"]}
     assert row["published"]["mean"] == raw[275_000] and "Walker2d-v5 | td3 | relu | 300,000" in capsys.readouterr().out
 
 

@@ -18,7 +18,7 @@ import numpy as np  # noqa: E402
 from matplotlib.ticker import FuncFormatter  # noqa: E402
 
 from swim_jax.analysis import runs_io  # noqa: E402
-from swim_jax.analysis.published import SOURCE, WARMUP_STEPS, curve_points, published_env  # noqa: E402
+from swim_jax.analysis.published_curves import SOURCE, WARMUP_STEPS, curve_points, published_env  # noqa: E402
 from swim_jax.analysis.report_figure import _save, _steps_label, extra_colors  # noqa: E402
 
 
