@@ -458,7 +458,10 @@ def test_an_old_folder_that_says_matmul_dtype_auto_resumes_as_it_ran(vmapped, tm
 def test_single_seed_equals_its_slot_in_the_vmapped_run(vmapped, tmp_path):
     """seeds=1 first_seed=1 (a padded 2-lane program: the same executable, nothing compiled)
     reproduces seed 1 of the 2-seed run bit for bit: evaluations and final actor."""
-    res = train.run(tiny("seeds=1", "first_seed=1"), str(tmp_path / "single"), log=lambda s: None)
+    lines = []
+    res = train.run(tiny("seeds=1", "first_seed=1"), str(tmp_path / "single"), log=lines.append)
+    progress = [line for line in lines if line.startswith("step ")]
+    assert progress and all(" over 1 seed" in line and "1 seeds" not in line for line in progress)
     assert res.evaluations.shape == (5, 1, 5) and res.final_actor["params/body/head/bias"].shape[0] == 1
     np.testing.assert_array_equal(res.evaluations[:, 0], vmapped.evaluations[:, 1])
     for k, v in res.final_actor.items():

@@ -483,7 +483,8 @@ def _progress_line(cfg: Config, layout: LaneLayout, step: int, ev: np.ndarray, d
     means = ev.mean(axis=1)  # [P·S] each lane's mean episode return
     rate = cfg.eval_freq * P * S / dt
     unit = "lane" if layout.swept else "seed"
-    over = f"{P} points × {S} seeds" if layout.swept else f"{S} seeds"
+    seeds = f"{S} seed{'' if S == 1 else 's'}"
+    over = f"{P} points × {seeds}" if layout.swept else seeds
     line = (f"step {step:>8d}/{cfg.total_steps} | {rate:8.0f} env-steps/s ({rate / (P * S):.0f}/{unit}"
             f"{', incl. compile' if first else ''}{', bf16 matmuls' if bf16 else ''}) | eval {means.mean():9.2f} ± {means.std():7.2f} over {over}")
     if layout.swept and P <= 8:
@@ -603,9 +604,9 @@ def main(argv: list[str] | None = None, require_sweep: bool = False) -> int:
         raise
     t = res.timing
     rate = t["env_steps_per_s"]
-    say(f"done in {_fmt_time(t['wall_time_s'])}; "
-        f"{'%.0f' % rate if rate else '?'} env-steps/s over {t['lanes'] if cfg.sweep else cfg.seeds} "
-        f"{'lanes (points × seeds)' if cfg.sweep else 'seeds'}; outputs in {run_dir}")
+    over = f"{t['lanes']} lanes (points × seeds)" if cfg.sweep else f"{cfg.seeds} seed{'' if cfg.seeds == 1 else 's'}"
+    say(f"done in {_fmt_time(t['wall_time_s'])}; {'%.0f' % rate if rate else '?'} env-steps/s over {over}; "
+        f"outputs in {run_dir}")
     return 0
 
 
