@@ -17,7 +17,7 @@ import time
 import pytest
 
 from swim_jax import config as cfgmod
-from swim_jax.run import study
+from swim_jax.run import study_file
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -91,10 +91,10 @@ def test_a_study_by_bare_name_is_the_shipped_one(tmp_path, monkeypatch):
     shipped = os.path.join(cfgmod.CONFIG_DIR, "studies", "table2.yaml")
     assert cfgmod.shipped_study("table2") == cfgmod.shipped_study("table2.yaml") == shipped
     assert cfgmod.shipped_study("configs/studies/table2.yaml") is None and cfgmod.shipped_study("nope") is None
-    s = study.load("table2", str(tmp_path / "out"))
+    s = study_file.load("table2", str(tmp_path / "out"))
     assert s.path == shipped and s.name == "table2" and len(s.cells) == 12
-    with pytest.raises(study.StudyError, match="study file nope.yaml not found; or a shipped study by name: .*table2"):
-        study.load("nope.yaml")
+    with pytest.raises(study_file.StudyError, match="study file nope.yaml not found; or a shipped study by name: .*table2"):
+        study_file.load("nope.yaml")
 
 
 # ------------------------------------------------------------------------------------------------

@@ -22,7 +22,7 @@ import pytest
 import yaml
 
 from swim_jax.io import provenance
-from swim_jax.run import study, train
+from swim_jax.run import study, study_cells, study_file, train
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TINY = {
@@ -58,8 +58,8 @@ def interrupted(tmp_path_factory):
     """(study file, study): cell 0 done, cell 1 stopped after its step-1000 checkpoint, cell 2 not started."""
     tmp = tmp_path_factory.mktemp("study")
     path = write_study(str(tmp), {**TINY, "out_dir": str(tmp / "out")})
-    s = study.load(path)
-    assert study.run_cell(s.cells[0], log=lambda _: None) == 0
+    s = study_file.load(path)
+    assert study_cells.run_cell(s.cells[0], log=lambda _: None) == 0
 
     def stop_after_first_chunk(line: str) -> None:
         if line.startswith("step "):  # logged after the chunk's checkpoint was saved
@@ -81,7 +81,7 @@ def test_cells_in_order_with_stable_folders(interrupted):
 
 def test_status_before_resume(interrupted):
     path, s = interrupted
-    states = [study.cell_state(c) for c in s.cells]
+    states = [study_cells.cell_state(c) for c in s.cells]
     assert [(x.state, x.step) for x in states] == [("done", 2000), ("started", 1000), ("left", 0)]
     res = cli(path, "--status")
     assert res.returncode == 0, res.stderr
@@ -123,12 +123,12 @@ def test_slurm_script_runs_a_cell(interrupted, tmp_path):
 def test_a_locked_cell_is_not_run_twice(interrupted):
     path, s = interrupted
     c = s.cells[2]
-    with study.cell_lock(c.run_dir) as held:
-        assert held and study.is_locked(c.run_dir)
-        assert study.cell_state(c).state == "running"
+    with study_cells.cell_lock(c.run_dir) as held:
+        assert held and study_cells.is_locked(c.run_dir)
+        assert study_cells.cell_state(c).state == "running"
         res = cli(path, "--cell", "hopper_swish")
         assert res.returncode == 0 and "already being trained by another process" in res.stdout
-    assert not study.is_locked(c.run_dir)
+    assert not study_cells.is_locked(c.run_dir)
     assert not os.path.exists(os.path.join(c.run_dir, "config.yaml"))
 
 
@@ -137,9 +137,9 @@ def test_logged_to_file_appends_each_line_once(tmp_path):
     train.log; one whose stdout already is that file (the study's runner) does not write them twice."""
     import io
 
-    path = tmp_path / study.LOG_FILE
+    path = tmp_path / study_cells.LOG_FILE
     printed = []
-    with study.logged_to_file(str(tmp_path), printed.append, stream=io.StringIO()) as log:
+    with study_cells.logged_to_file(str(tmp_path), printed.append, stream=io.StringIO()) as log:
         log("by hand")
     assert printed == ["by hand"] and path.read_text() == "by hand\n"
     with open(path, "a") as redirected:  # as run_study's Popen(stdout=...) leaves it
@@ -147,7 +147,7 @@ def test_logged_to_file_appends_each_line_once(tmp_path):
             redirected.write(line + "\n")
             redirected.flush()
 
-        with study.logged_to_file(str(tmp_path), to_stdout, stream=redirected) as log:
+        with study_cells.logged_to_file(str(tmp_path), to_stdout, stream=redirected) as log:
             log("from the runner")
     assert path.read_text() == "by hand\nfrom the runner\n"
 
@@ -180,26 +180,26 @@ def test_study_skips_resumes_and_starts(finished):
     for n, data in before.items():
         assert open(os.path.join(s.cells[0].run_dir, n), "rb").read() == data, n
     # cell 1 resumed from its checkpoint; cell 2 started at step 0
-    log1 = open(os.path.join(s.cells[1].run_dir, study.LOG_FILE)).read()
+    log1 = open(os.path.join(s.cells[1].run_dir, study_cells.LOG_FILE)).read()
     assert "hopper_relu: resuming" in log1 and f"resumed {s.cells[1].run_dir} at step 1000" in log1
     assert [e["step"] for e in provenance.read(s.cells[1].run_dir)] == [0, 1000]
     # the resumed stretch multiplies in this CPU's products and says that they changed
     first, second = (e["matmul_dtype"] for e in provenance.read(s.cells[1].run_dir))
     assert second == json.load(open(os.path.join(s.cells[1].run_dir, "timing.json")))["matmul_dtype"] != first
     assert f"warning: this stretch multiplies in {second}, the run's last one in {first}" in log1
-    log2 = open(os.path.join(s.cells[2].run_dir, study.LOG_FILE)).read()
+    log2 = open(os.path.join(s.cells[2].run_dir, study_cells.LOG_FILE)).read()
     assert "hopper_swish: starting" in log2
     # the runner redirects a cell's output into its train.log: each line is there once, not twice
     assert log2.count("hopper_swish: starting") == 1 and log2.count("step     1000/2000") == 1
     # cell 0 was trained by hand (run_cell in this process, as --cell does): its lines went to its train.log
-    log0 = open(os.path.join(s.cells[0].run_dir, study.LOG_FILE)).read()
+    log0 = open(os.path.join(s.cells[0].run_dir, study_cells.LOG_FILE)).read()
     assert log0.count("hopper_swim: starting") == 1 and log0.count("step     2000/2000") == 1
     assert "hopper_swim: done in" in log0
     assert [e["step"] for e in provenance.read(s.cells[2].run_dir)] == [0]
     for c in s.cells:
         ev = np.load(os.path.join(c.run_dir, "evaluations.npy"))
         assert ev.shape == (3, 2) and np.isfinite(ev).all()
-        assert study.cell_state(c).state == "done"
+        assert study_cells.cell_state(c).state == "done"
     # and again: nothing left to do
     again = cli(path)
     assert again.returncode == 0 and again.stdout.count("done; skipped") == 3
@@ -231,11 +231,11 @@ def test_a_raised_budget_reopens_done_cells_and_a_lowered_one_is_refused(finishe
     by train.run, tests/test_train.py: the grown budget equals a run started with it); one whose
     total_steps was lowered is refused with one line naming the cell."""
     path, s, _, _ = finished
-    raised = study.load(write_study(str(tmp_path), {**TINY, "out_dir": s.out_dir, "total_steps": 3000}))
-    assert all(study.cell_state(c).state == "started" and c.cfg.total_steps == 3000 for c in raised.cells)
-    with pytest.raises(study.StudyError, match="started with total_steps=2000, the study now gives "
+    raised = study_file.load(write_study(str(tmp_path), {**TINY, "out_dir": s.out_dir, "total_steps": 3000}))
+    assert all(study_cells.cell_state(c).state == "started" and c.cfg.total_steps == 3000 for c in raised.cells)
+    with pytest.raises(study_file.StudyError, match="started with total_steps=2000, the study now gives "
                                                "total_steps=1000; a budget can only grow"):
-        study.load(write_study(str(tmp_path), {**TINY, "out_dir": s.out_dir, "total_steps": 1000}, "low.yaml"))
+        study_file.load(write_study(str(tmp_path), {**TINY, "out_dir": s.out_dir, "total_steps": 1000}, "low.yaml"))
 
 
 def test_provenance_of_a_cell(finished):
@@ -316,10 +316,10 @@ def test_a_study_on_the_auto_backend_keeps_each_cells_recorded_physics(interrupt
     path, s = interrupted
     auto = yaml.safe_load(open(path))
     del auto["overrides"]["env.backend"]
-    other = study.load(write_study(str(tmp_path), auto, "auto.yaml"))
+    other = study_file.load(write_study(str(tmp_path), auto, "auto.yaml"))
     assert all(c.cfg.env.backend == "auto" for c in other.cells)
     assert study.main([os.path.join(str(tmp_path), "auto.yaml"), "--status"]) == 0
-    assert study._recorded_backend(other.cells[1]).env.backend == "mujoco"
+    assert study_cells.recorded_backend(other.cells[1]).env.backend == "mujoco"
     folder = tmp_path / "mjx_cell"
     folder.mkdir()
     cell = other.cells[0]
@@ -328,11 +328,11 @@ def test_a_study_on_the_auto_backend_keeps_each_cells_recorded_physics(interrupt
     assert "backend: mujoco" in text and "\nseeds: 2\n" in text
     moved = dataclasses.replace(cell, run_dir=str(folder))
     (folder / "config.yaml").write_text(text.replace("backend: mujoco", "backend: mjx"))
-    study._check_existing(moved)  # auto accepts what auto chose where the cell started
-    assert study._recorded_backend(moved).env.backend == "mjx"
+    study_file._check_existing(moved)  # auto accepts what auto chose where the cell started
+    assert study_cells.recorded_backend(moved).env.backend == "mjx"
     (folder / "config.yaml").write_text(text.replace("backend: mujoco", "backend: mjx").replace("\nseeds: 2\n", "\nseeds: 3\n"))
-    with pytest.raises(study.StudyError, match="was started with seeds=3"):
-        study._check_existing(moved)
+    with pytest.raises(study_file.StudyError, match="was started with seeds=3"):
+        study_file._check_existing(moved)
 
 
 def test_curate_copies_finished_cells_without_checkpoints_and_reports_them(interrupted, tmp_path, capsys):
@@ -340,7 +340,7 @@ def test_curate_copies_finished_cells_without_checkpoints_and_reports_them(inter
     final policies, config, timing, provenance kept), the report over the copies in DIR/report;
     run again, the copies are left as they are and the report is rewritten."""
     path, s = interrupted
-    done = [c for c in s.cells if study.cell_state(c).state == "done"]
+    done = [c for c in s.cells if study_cells.cell_state(c).state == "done"]
     assert done  # cell 0 at least
     out = tmp_path / "curated"
     # (--mixed-precision: after the finished fixture, cell 1's stretches multiplied in both dtypes)
@@ -349,7 +349,7 @@ def test_curate_copies_finished_cells_without_checkpoints_and_reports_them(inter
         names = set(os.listdir(out / c.name))
         assert {"config.yaml", "evaluations.csv", "metrics.csv", "final_policy.npz", "timing.json",
                 "provenance.json"} <= names  # (and train.log for cells the study command ran)
-        assert "checkpoints" not in names and study.LOCK_FILE not in names
+        assert "checkpoints" not in names and study_cells.LOCK_FILE not in names
         np.testing.assert_array_equal(np.load(out / c.name / "evaluations.npy"),
                                       np.load(os.path.join(c.run_dir, "evaluations.npy")))
     report_md = (out / "report" / "REPORT.md").read_text()
@@ -392,10 +392,10 @@ def test_adopt_brings_curated_cells_back_as_done_on_a_new_machine(finished, tmp_
     capsys.readouterr()
     assert study.main([path, "--out-dir", str(new), "--adopt", str(curated)]) == 0
     out = capsys.readouterr().out
-    moved = study.load(path, str(new))
+    moved = study_file.load(path, str(new))
     for c, old in zip(moved.cells, s.cells):
         assert f"{c.name}: adopted from {curated / c.name}" in out
-        assert study.cell_state(c).state == "done"
+        assert study_cells.cell_state(c).state == "done"
         np.testing.assert_array_equal(np.load(os.path.join(c.run_dir, "evaluations.npy")),
                                       np.load(os.path.join(old.run_dir, "evaluations.npy")))
         assert not os.path.exists(c.run_dir + ".partial") and "checkpoints" not in os.listdir(c.run_dir)
@@ -428,13 +428,13 @@ def test_a_curated_report_shows_uncopied_cells_as_they_stand_where_the_study_tra
 
     path, s = interrupted
     trained = tmp_path / "trained"
-    shutil.copytree(s.out_dir, trained, ignore=shutil.ignore_patterns(study.LOCK_FILE))
+    shutil.copytree(s.out_dir, trained, ignore=shutil.ignore_patterns(study_cells.LOCK_FILE))
     last = s.cells[1].name  # started (interrupted) or done (after the study ran): "started" once unfinished
     if (trained / last / "final_policy.npz").exists():
         os.remove(trained / last / "final_policy.npz")
     data = yaml.safe_load(open(path))
-    copy = study.load(write_study(str(tmp_path), {**data, "out_dir": str(trained)}, "copy.yaml"))
-    st = study.cell_state(copy.cell(last))
+    copy = study_file.load(write_study(str(tmp_path), {**data, "out_dir": str(trained)}, "copy.yaml"))
+    st = study_cells.cell_state(copy.cell(last))
     assert st.state == "started" and st.step > 0  # its checkpoints are there
     assert study.main([copy.path, "--curate", str(tmp_path / "curated")]) == 0
     report_md = (tmp_path / "curated" / "report" / "REPORT.md").read_text()
@@ -447,8 +447,8 @@ def test_a_curated_report_shows_uncopied_cells_as_they_stand_where_the_study_tra
 @pytest.mark.parametrize("path", sorted(os.listdir(os.path.join(REPO, "configs", "studies"))))
 def test_every_shipped_study_file_loads_and_its_cells_validate(path, tmp_path):
     """Each configs/studies/*.yaml is a valid study: every cell's config resolves and validates
-    (study.load), the cells do not pool, and its float32 study files multiply in float32."""
-    s = study.load(os.path.join(REPO, "configs", "studies", path), out_dir=str(tmp_path))
+    (study_file.load), the cells do not pool, and its float32 study files multiply in float32."""
+    s = study_file.load(os.path.join(REPO, "configs", "studies", path), out_dir=str(tmp_path))
     assert s.cells and all(c.run_dir.startswith(str(tmp_path)) for c in s.cells)
     if path.startswith("f32-"):
         assert {c.cfg.matmul_dtype for c in s.cells} == {"full"}

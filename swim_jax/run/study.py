@@ -23,6 +23,10 @@ NAME|INDEX`` (the same command from any session, any machine sharing the folder,
 task: ``--slurm`` prints that script). A cell being trained holds an exclusive lock on its
 ``study.lock`` (released when its process ends, however it ends), so no cell runs twice at once.
 
+The code in three parts: the study file read into cells (swim_jax/run/study_file.py); where each cell
+stands, its lock and training it (swim_jax/run/study_cells.py); and here the command, the report's
+study section, ``--curate``, ``--adopt`` and ``--slurm``.
+
 Exit status: 0 every cell asked for is done; 1 a cell's training failed (its line names the cell, its
 exit status and log); 2 bad study file, option or cell, or a cell folder that was started with a
 different config (nothing started).
@@ -30,492 +34,25 @@ different config (nothing started).
 
 from __future__ import annotations
 
-import contextlib
-import csv
 import dataclasses
 import datetime
-import fcntl
 import itertools
 import json
 import os
 import shlex
-import subprocess
 import sys
-import time
-from dataclasses import dataclass
-from typing import Any, Callable, Mapping
+from typing import Callable
 
-import yaml
-
-from swim_jax.io import cli_parser
 from swim_jax import config as cfgmod
-from swim_jax.io import output_folder, provenance
+from swim_jax.io import cli_parser, output_folder, provenance
 from swim_jax.run.heartbeat import fmt_duration
-from swim_jax.config import Config, ConfigError
-
-STUDY_KEYS = ("name", "out_dir", "envs", "activations", "configs", "seeds", "total_steps", "overrides", "grid")
-SET_BY_STUDY = ("name", "out_dir", "sweep", "local_processes", "seeds", "total_steps")  # not in overrides/grid
-LOCK_FILE = "study.lock"
-LOG_FILE = "train.log"
-# cells run at once when --parallel is not given: one cell on every core was measured fastest in the
-# learning phase on this project's 2-core machine (docs/PERFORMANCE.md: study-cells-at-once)
-DEFAULT_PARALLEL = 1
-
-
-class StudyError(ValueError):
-    """A bad study file, option or cell folder; ``str(e)`` is one line."""
-
-
-@dataclass(frozen=True)
-class Cell:
-    """One run of the study: its stable name, position, config and run folder."""
-
-    index: int
-    name: str
-    cfg: Config
-    run_dir: str
-
-
-@dataclass(frozen=True)
-class Study:
-    """A loaded, validated study file: its path, name, out_dir and cells in order."""
-
-    path: str
-    name: str
-    out_dir: str
-    cells: tuple[Cell, ...]
-
-    def cell(self, key: str) -> Cell:
-        """The cell named ``key``, or at position ``key`` (0-based, e.g. ``$SLURM_ARRAY_TASK_ID``)."""
-        if key.isdigit():
-            if int(key) < len(self.cells):
-                return self.cells[int(key)]
-            raise StudyError(f"--cell {key}: the study has {len(self.cells)} cells (0..{len(self.cells) - 1})")
-        for c in self.cells:
-            if c.name == key:
-                return c
-        raise StudyError(f"--cell {key!r}: no such cell; valid: {', '.join(c.name for c in self.cells)}")
+from swim_jax.run.study_cells import (DEFAULT_PARALLEL, LOCK_FILE, CellState, cell_command, cell_state, is_done,
+                                      last_evaluation, reached, run_cell, run_study, shown_path, status_table)
+from swim_jax.run.study_file import Study, StudyError, load, started
 
 
 # ------------------------------------------------------------------------------------------------
-# the study file
-# ------------------------------------------------------------------------------------------------
-
-def load(path: str, out_dir: str | None = None) -> Study:
-    """Read and validate the study file at ``path`` (``out_dir`` overrides its own); every cell's
-    config is resolved and validated, cells that would pool as one (env, activation) are refused,
-    and so is an existing cell folder whose config.yaml differs from the cell's. :class:`StudyError`."""
-    if not os.path.isfile(path):  # a bare name (table2) is a shipped study, configs/studies/<name>.yaml
-        shipped = cfgmod.shipped_study(path)
-        if shipped is None:
-            raise StudyError(f"study file {path} not found; or a shipped study by name: "
-                             f"{', '.join(cfgmod.available_studies())} (table2: the paper's)")
-        path = shipped
-    try:
-        data = cfgmod.load_yaml_mapping(path, path, f"a mapping with keys {', '.join(STUDY_KEYS)}")
-    except ConfigError as e:
-        raise StudyError(str(e)) from None
-    unknown = [k for k in data if k not in STUDY_KEYS]
-    if unknown:
-        raise StudyError(f"{path}: unknown key {unknown[0]!r}; valid keys: {', '.join(STUDY_KEYS)}")
-    name = str(data.get("name") or os.path.splitext(os.path.basename(path))[0])
-    out = os.path.abspath(os.path.expanduser(os.path.expandvars(
-        out_dir or str(data.get("out_dir") or os.path.join("runs", f"study-{name}")))))
-    configs = _config_names(path, data)
-    shared = _overrides(path, data.get("overrides"), "overrides")
-    for key in ("seeds", "total_steps"):
-        if key in data:
-            shared[key] = data[key]
-    grid = _grid(path, data.get("grid"))
-    points = [dict(zip(grid, combo)) for combo in itertools.product(*grid.values())] or [{}]
-    cells = []
-    for config in configs:
-        for point in points:
-            cell_name = config + (f"-{_point_label(point)}" if point else "")
-            cfg = _cell_config(path, config, {**shared, **point}, cell_name, out)
-            cells.append(Cell(len(cells), cell_name, cfg, os.path.join(out, cell_name)))
-    _check_poolable(path, cells)
-    for c in cells:
-        _check_existing(c)
-    return Study(os.path.abspath(path), name, out, tuple(cells))
-
-
-def _string_list(path: str, data: dict, key: str) -> list[str]:
-    value = data.get(key)
-    if not isinstance(value, list) or not value or not all(isinstance(v, str) and v for v in value):
-        raise StudyError(f"{path}: {key} must be a non-empty list of names, got {value!r}")
-    if len(set(value)) != len(value):
-        raise StudyError(f"{path}: {key} lists a name twice: {value}")
-    return value
-
-
-def _config_names(path: str, data: dict) -> list[str]:
-    """The cells' config names: ``configs``, or ``<env>_<activation>`` over ``envs`` × ``activations``."""
-    if "configs" in data:
-        if "envs" in data or "activations" in data:
-            raise StudyError(f"{path}: give either configs or envs with activations, not both")
-        names = _string_list(path, data, "configs")
-    elif "envs" in data or "activations" in data:
-        names = [f"{e}_{a}" for e in _string_list(path, data, "envs") for a in _string_list(path, data, "activations")]
-    else:
-        raise StudyError(f"{path}: name the cells' configs: envs and activations (configs/<env>_<activation>.yaml) "
-                         "or a configs list")
-    valid = cfgmod.available_configs()
-    for n in names:
-        if n not in valid:
-            raise StudyError(f"{path}: no config {n!r} (configs/{n}.yaml); valid configs: {', '.join(valid)}")
-    return names
-
-
-def _overrides(path: str, value, key: str) -> dict[str, Any]:
-    """``{dotted key: value}`` from a (possibly nested) mapping; keys the study sets itself refused."""
-    if value is None:
-        return {}
-    if not isinstance(value, Mapping):
-        raise StudyError(f"{path}: {key} must be a mapping of config keys to values, e.g. {{env.backend: mujoco}}")
-    flat = cli_parser.dotted_keys(value)
-    for k in flat:
-        if k.split(".")[0] in SET_BY_STUDY:
-            raise StudyError(f"{path}: {key}.{k} is set by the study itself (top-level seeds/total_steps/out_dir; "
-                             f"a cell is one plain run); valid here: other config keys")
-    return flat
-
-
-def _grid(path: str, value) -> dict[str, list]:
-    grid = _overrides(path, value, "grid")
-    for k, values in grid.items():
-        if not isinstance(values, list) or not values:
-            raise StudyError(f"{path}: grid.{k} must be a non-empty list of values, got {values!r}")
-        if len(set(map(repr, values))) != len(values):
-            raise StudyError(f"{path}: grid.{k} lists a value twice: {values}")
-    return grid
-
-
-def _point_label(point: Mapping[str, Any]) -> str:
-    return ",".join(f"{k.rsplit('.', 1)[-1]}={v:g}" if isinstance(v, float) else f"{k.rsplit('.', 1)[-1]}={v}"
-                    for k, v in point.items())
-
-
-def _set_dotted(data: dict, key: str, value) -> dict:
-    data = dict(data)
-    node = data
-    parts = key.split(".")
-    for p in parts[:-1]:
-        node[p] = dict(node[p]) if isinstance(node.get(p), Mapping) else {}
-        node = node[p]
-    node[parts[-1]] = value
-    return data
-
-
-def _cell_config(path: str, config: str, values: dict[str, Any], name: str, out_dir: str) -> Config:
-    """The validated config of one cell: ``configs/<config>.yaml`` with ``values`` set."""
-    data = cfgmod.load_yaml_chain(config)
-    for k, v in values.items():
-        data = _set_dotted(data, k, v)
-    data = {**data, "name": name, "out_dir": out_dir}
-    try:
-        return cfgmod.validate(cfgmod.from_dict(Config, data))
-    except ConfigError as e:
-        raise StudyError(f"{path}: cell {name}: {e}") from None
-
-
-def _check_poolable(path: str, cells: list[Cell]) -> None:
-    """Refuse two cells the report would pool as the same (env, activation) with the same seeds."""
-    from swim_jax.analysis.runs_io import activation_label  # (imports the activation registry only)
-
-    seen: dict[tuple, str] = {}
-    for c in cells:
-        key = (c.cfg.env.id, activation_label(cfgmod.to_dict(c.cfg.agent.activation)), c.cfg.seed, c.cfg.first_seed)
-        if key in seen:
-            raise StudyError(f"{path}: cells {seen[key]} and {c.name} cannot be pooled: both are {key[0]} with "
-                             f"{key[1]} and the same seeds; a grid axis must change the activation (e.g. "
-                             "agent.activation.k), or make it a separate study")
-        seen[key] = c.name
-
-
-def _check_existing(c: Cell) -> None:
-    """Refuse a cell folder whose config.yaml is not this cell's (the study file or out_dir changed);
-    what does not count as a change: :func:`swim_jax.config.first_difference` (a raised total_steps
-    among them: the cell resumes to it)."""
-    if not started(c):
-        return
-    diff = cfgmod.first_difference(c.cfg, c.run_dir)
-    if diff:
-        k, recorded, wanted = diff
-        hint = ("; a budget can only grow" if k == "total_steps" else "")
-        raise StudyError(f"cell {c.name}: {os.path.join(c.run_dir, 'config.yaml')} was started with {k}={recorded!r}, "
-                         f"the study now gives {k}={wanted!r}{hint}; restore the study file or use another --out-dir")
-
-
-# ------------------------------------------------------------------------------------------------
-# the state of a cell
-# ------------------------------------------------------------------------------------------------
-
-@dataclass(frozen=True)
-class CellState:
-    """Where a cell stands: ``state`` is ``done``, ``running`` (its lock is held), ``started`` (a
-    folder, not running) or ``left`` (no folder); ``step`` the newest checkpoint's; ``last_eval``
-    (mean, std over seeds) of its newest evaluation; ``seconds_per_step`` its measured wall time
-    per env step (all seeds), None until known."""
-
-    cell: Cell
-    state: str
-    step: int
-    last_eval: tuple[float, float] | None
-    seconds_per_step: float | None
-    wall_s: float | None
-
-
-def is_locked(run_dir: str) -> bool:
-    """Whether a process holds the cell's lock now (i.e. is training it)."""
-    path = os.path.join(run_dir, LOCK_FILE)
-    if not os.path.isfile(path):
-        return False
-    with open(path) as f:
-        try:
-            fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            return True
-        fcntl.flock(f, fcntl.LOCK_UN)
-    return False
-
-
-@contextlib.contextmanager
-def cell_lock(run_dir: str):
-    """Hold the cell's exclusive lock for the block; yields False (not held) when another process has it."""
-    os.makedirs(run_dir, exist_ok=True)
-    with open(os.path.join(run_dir, LOCK_FILE), "a+") as f:
-        try:
-            fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            yield False
-            return
-        f.seek(0)
-        f.truncate()
-        f.write(f"{os.getpid()} {os.uname().nodename}\n")
-        f.flush()
-        try:
-            yield True
-        finally:
-            fcntl.flock(f, fcntl.LOCK_UN)
-
-
-def _last_evaluation(run_dir: str) -> tuple[int, float, float] | None:
-    path = os.path.join(run_dir, "evaluations.csv")
-    if not os.path.isfile(path):
-        return None
-    with open(path) as f:
-        rows = list(csv.DictReader(f))
-    if not rows:
-        return None
-    r = rows[-1]
-    return int(r["step"]), float(r["mean"]), float(r["std"])
-
-
-def _is_done(c: Cell) -> bool:
-    last = _last_evaluation(c.run_dir)
-    return (os.path.isfile(os.path.join(c.run_dir, "timing.json"))
-            and os.path.isfile(os.path.join(c.run_dir, "final_policy.npz"))
-            and last is not None and last[0] == c.cfg.total_steps)
-
-
-def _seconds_per_step(c: Cell, done: bool) -> tuple[float | None, float | None]:
-    """(measured wall seconds per env step, wall seconds of the last stretch): from timing.json of a
-    finished cell (the stretch since its last resume), else from the times of its two newest
-    checkpoints, counted only when both lie in the learning phase (the random warm-up before
-    ``learning_starts`` is several times faster per step and would make the ETA far too short)."""
-    if done:
-        with open(os.path.join(c.run_dir, "timing.json")) as f:
-            t = json.load(f)
-        first = (t.get("resumed_from_chunk") or 0) * c.cfg.eval_freq
-        steps = c.cfg.total_steps - first
-        return (t["wall_time_s"] / steps if steps > 0 else None), t["wall_time_s"]
-    ckpt = os.path.join(c.run_dir, "checkpoints")
-    steps = sorted(int(n) for n in os.listdir(ckpt) if n.isdigit()) if os.path.isdir(ckpt) else []
-    steps = [s for s in steps if s >= c.cfg.learning_starts]
-    if len(steps) < 2:
-        return None, None
-    a, b = steps[-2], steps[-1]
-    dt = os.path.getmtime(os.path.join(ckpt, str(b))) - os.path.getmtime(os.path.join(ckpt, str(a)))
-    return (dt / (b - a) if dt > 0 else None), None
-
-
-def cell_state(c: Cell) -> CellState:
-    """The :class:`CellState` of ``c`` read from its folder (nothing is written)."""
-    from swim_jax.io.checkpoint import latest_complete_step
-
-    if not started(c):
-        return CellState(c, "running" if is_locked(c.run_dir) else "left", 0, None, None, None)
-    done = _is_done(c)
-    last = _last_evaluation(c.run_dir)
-    step = c.cfg.total_steps if done else (latest_complete_step(os.path.join(c.run_dir, "checkpoints")) or 0)
-    rate, wall = _seconds_per_step(c, done)
-    state = "done" if done else "running" if is_locked(c.run_dir) else "started"
-    return CellState(c, state, step, None if last is None else (last[1], last[2]), rate, wall)
-
-
-def status_table(study: Study, parallel: int) -> str:
-    """The ``--status`` text: one row per cell, then the study's totals and ETA (cells left ×
-    their steps at the measured seconds per step, ``parallel`` cells at a time)."""
-    states = [cell_state(c) for c in study.cells]
-    width = max(len(c.name) for c in study.cells)
-    lines = [f"{'cell':<{width}}  {'state':<8} {'steps':>16}  {'last eval (mean ± std over seeds)':>34}  wall"]
-    for s in states:
-        ev = "" if s.last_eval is None else f"{s.last_eval[0]:.1f} ± {s.last_eval[1]:.1f}"
-        lines.append(f"{s.cell.name:<{width}}  {s.state:<8} {s.step:>8}/{s.cell.cfg.total_steps:<7}  {ev:>34}  "
-                     f"{fmt_duration(s.wall_s) if s.wall_s else ''}")
-    counts = {k: sum(s.state == k for s in states) for k in ("done", "running", "started", "left")}
-    left_steps = sum(s.cell.cfg.total_steps - s.step for s in states)
-    rates = [s.seconds_per_step for s in states if s.seconds_per_step]
-    if rates and left_steps:
-        per_step = sum(rates) / len(rates)
-        eta = f"ETA {fmt_duration(left_steps * per_step / parallel)} at {parallel} cell(s) at once " \
-              f"({per_step * 1000:.1f} ms per step measured over {len(rates)} cell(s))"
-    else:
-        eta = "done" if not left_steps else "ETA ? (no cell has two checkpoints in its learning phase yet)"
-    lines.append(f"study {study.name}: {counts['done']}/{len(states)} done, {counts['running']} running, "
-                 f"{counts['started']} started, {counts['left']} not started; {left_steps} steps left; {eta}")
-    lines.append(f"out_dir: {study.out_dir}")
-    return "\n".join(lines)
-
-
-# ------------------------------------------------------------------------------------------------
-# running cells
-# ------------------------------------------------------------------------------------------------
-
-def shown_path(path: str) -> str:
-    """``path`` as a report shows it: relative to the working directory when it lies inside it (a
-    curated report in the repository then names its inputs by repository paths, not this
-    machine's), else as given."""
-    rel = os.path.relpath(path)
-    return path if rel == os.pardir or rel.startswith(os.pardir + os.sep) else rel
-
-
-def cell_command(study: Study, key: str, python: str = sys.executable) -> list[str]:
-    """The command that trains (or resumes, or skips when done) one cell of ``study``."""
-    return [python, "-m", "swim_jax.study", study.path, "--out-dir", study.out_dir, "--cell", key]
-
-
-def _recorded_backend(c: Cell) -> Config:
-    """The cell's config with ``env.backend=auto`` replaced by the backend its run folder recorded
-    (a resumed cell keeps the physics it started with, whichever machine resumes it)."""
-    if c.cfg.env.backend != "auto":
-        return c.cfg
-    with open(os.path.join(c.run_dir, "config.yaml")) as f:
-        recorded = ((yaml.safe_load(f) or {}).get("env") or {}).get("backend", "auto")
-    return dataclasses.replace(c.cfg, env=dataclasses.replace(c.cfg.env, backend=recorded))
-
-
-@contextlib.contextmanager
-def logged_to_file(run_dir: str, log: Callable[[str], None], stream=None):
-    """Yield ``log`` extended to append each line to the cell's ``train.log`` too, unless ``stream``
-    (default ``sys.stdout``) already writes into that file, as it does for a cell the study's
-    runner started (:func:`run_study` redirects its output there): each line lands in the file once."""
-    path = os.path.join(run_dir, LOG_FILE)
-    stream = sys.stdout if stream is None else stream
-    try:
-        same = os.path.exists(path) and os.path.samestat(os.fstat(stream.fileno()), os.stat(path))
-    except (AttributeError, OSError, ValueError):  # a stream without a file (a pipe is a file; StringIO is not)
-        same = False
-    if same:
-        yield log
-        return
-    with open(path, "a") as f:
-        def log_and_append(line: str) -> None:
-            log(line)
-            f.write(line + "\n")
-            f.flush()
-        yield log_and_append
-
-
-def run_cell(c: Cell, log: Callable[[str], None] = print) -> int:
-    """Train cell ``c`` in this process: skip it when done or running elsewhere, resume it from its
-    newest checkpoint when started, else start it. Returns the exit status (0, or 3 on NaN/inf).
-    Once it trains, every line also goes to the cell's ``train.log`` (:func:`logged_to_file`), so a
-    cell run by hand (``--cell``, a SLURM task) keeps its log where the study's runner keeps it."""
-    with cell_lock(c.run_dir) as held:
-        if not held:
-            log(f"{c.name}: already being trained by another process ({os.path.join(c.run_dir, LOCK_FILE)}); skipped")
-            return 0
-        if _is_done(c):
-            log(f"{c.name}: done; skipped")
-            return 0
-        with logged_to_file(c.run_dir, log) as log_both:
-            return _train_cell(c, log_both)
-
-
-def _train_cell(c: Cell, log: Callable[[str], None]) -> int:
-    """:func:`run_cell`'s training, the lock held: resume ``c`` when started, else start it."""
-    from swim_jax.run import train
-
-    resume = started(c)
-    log(f"{c.name}: {'resuming' if resume else 'starting'} in {c.run_dir}")
-    cfg = _recorded_backend(c) if resume else c.cfg
-    try:
-        res = train.run(cfg, c.run_dir, resume=resume, log=log, status=log)
-    except train.NonFiniteError as e:
-        log(f"error: {e}")
-        return 3
-    log(f"{c.name}: done in {fmt_duration(res.timing['wall_time_s'])}")
-    return 0
-
-
-def run_study(study: Study, parallel: int, log: Callable[[str], None] = print, poll_s: float = 2.0) -> int:
-    """Run every cell that is not done, ``parallel`` at a time in the study's order, each as
-    :func:`cell_command` in its own process pinned to its share of the cores, its output appended
-    to its ``train.log``. Returns 0 when all are done, 1 when a cell failed (named in a line)."""
-    from swim_jax.placement.local_processes import core_shares
-
-    shares = core_shares(parallel)
-    queue = []
-    for c in study.cells:
-        s = cell_state(c)
-        if s.state == "done":
-            log(f"{c.name}: done; skipped")
-        elif s.state == "running":
-            log(f"{c.name}: being trained by another process; skipped")
-        else:
-            queue.append(c)
-    running: dict[int, tuple[Cell, subprocess.Popen, float, Any]] = {}  # slot -> (cell, process, start, log file)
-    failed = []
-    try:
-        while queue or running:
-            for slot in range(parallel):
-                if slot not in running and queue:
-                    c = queue.pop(0)
-                    os.makedirs(c.run_dir, exist_ok=True)
-                    out = open(os.path.join(c.run_dir, LOG_FILE), "a")
-                    pin = shares[slot] if parallel > 1 else None
-                    proc = subprocess.Popen(cell_command(study, c.name), stdout=out, stderr=subprocess.STDOUT,
-                                            preexec_fn=(lambda p=pin: os.sched_setaffinity(0, p)) if pin else None)
-                    running[slot] = (c, proc, time.time(), out)
-                    log(f"{c.name}: started (cores {','.join(map(str, pin)) if pin else 'all'}; "
-                        f"log {os.path.join(c.run_dir, LOG_FILE)})")
-            time.sleep(poll_s)
-            for slot, (c, proc, t0, out) in list(running.items()):
-                code = proc.poll()
-                if code is None:
-                    continue
-                out.close()
-                del running[slot]
-                if code == 0:
-                    log(f"{c.name}: finished after {fmt_duration(time.time() - t0)}")
-                else:
-                    failed.append(c.name)
-                    log(f"{c.name}: failed with exit status {code}; see {os.path.join(c.run_dir, LOG_FILE)}")
-    finally:
-        for c, proc, _, out in running.values():  # interrupted: the cells stop, their checkpoints stay
-            proc.terminate()
-            proc.wait()
-            out.close()
-    done = sum(cell_state(c).state == "done" for c in study.cells)
-    log(f"study {study.name}: {done}/{len(study.cells)} cells done"
-        + (f"; failed: {', '.join(failed)}" if failed else ""))
-    return 1 if failed else 0
-
-
-# ------------------------------------------------------------------------------------------------
-# report and SLURM
+# report, curate, adopt and SLURM
 # ------------------------------------------------------------------------------------------------
 
 def _git_commits(states: list[CellState]) -> list[str]:
@@ -565,17 +102,6 @@ def study_section(study: Study, states: list[CellState], trained: Study | None =
     return "\n".join(lines)
 
 
-def started(c: Cell) -> bool:
-    """Whether cell ``c`` has a run folder with its config.yaml (its run has started)."""
-    return os.path.isfile(os.path.join(c.run_dir, "config.yaml"))
-
-
-def _reached(c: Cell, step: int) -> bool:
-    """Whether cell ``c`` has evaluated at ``step`` (or beyond)."""
-    last = _last_evaluation(c.run_dir)
-    return last is not None and last[0] >= step
-
-
 def write_report(study: Study, out: str, bench: list[str], force: bool, log: Callable[[str], None] = print,
                  trained: Study | None = None, command: list[str] | None = None, at_step: int | None = None,
                  mixed_precision: bool = False) -> int:
@@ -588,7 +114,7 @@ def write_report(study: Study, out: str, bench: list[str], force: bool, log: Cal
     owned = report.OUTPUT_FILES + ("study.json",)  # what --report writes into out (and --force replaces)
     states = [cell_state(c) for c in study.cells]
     if at_step is not None:  # a cell that reached the step counts as done at that budget
-        states = [dataclasses.replace(s, state="done") if _reached(s.cell, at_step) else s for s in states]
+        states = [dataclasses.replace(s, state="done") if reached(s.cell, at_step) else s for s in states]
     done = [shown_path(s.cell.run_dir) for s in states if s.state == "done"]
     if not done:
         raise StudyError(f"no finished cell in {study.out_dir} yet"
@@ -686,8 +212,8 @@ def adopt(study: Study, src: str, log: Callable[[str], None] = print) -> int:
         if os.path.exists(c.run_dir):
             log(f"{c.name}: already in {study.out_dir}; left as it is")
             continue
-        if not _is_done(copy):
-            last = _last_evaluation(copy.run_dir)
+        if not is_done(copy):
+            last = last_evaluation(copy.run_dir)
             log(f"{c.name}: {copy.run_dir} stopped at step {last[0] if last else 0} of {c.cfg.total_steps} and has no "
                 "checkpoints to grow from; not adopted (the study trains it from step 0)")
             continue
