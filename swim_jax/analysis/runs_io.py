@@ -42,7 +42,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import yaml
 
-from swim_jax.io import learning_log, provenance
+from swim_jax.io import cli_parser, learning_log, provenance
 from swim_jax.io.schedule import STEPS_FILE, Schedule
 from swim_jax.activations import ACTIVATIONS, ActivationSetting, label_activation, parameter_defaults
 from swim_jax.agents.base import DEFAULT_KIND
@@ -510,19 +510,11 @@ def _numerics_differences(runs: list[Run]) -> str | None:
     return "runs differ in precision or matmul_dtype: " + "; ".join(f"{n}: {', '.join(ps)}" for n, ps in by.items())
 
 
-def flat_config(d: dict, ignored, prefix: str = "") -> dict:
-    """``d`` flattened to dotted keys (``agent.activation.k``), without the keys in ``ignored``
-    (a dotted key there drops its whole sub-tree)."""
-    out = {}
-    for k, v in d.items():
-        key = f"{prefix}{k}"
-        if key in ignored:
-            continue
-        if isinstance(v, dict):
-            out.update(flat_config(v, ignored, key + "."))
-        else:
-            out[key] = v
-    return out
+def flat_config(d: dict, ignored) -> dict:
+    """``d`` flattened to dotted keys (``agent.activation.k``: :func:`swim_jax.io.cli_parser.dotted_keys`),
+    without the keys in ``ignored`` (a dotted key there drops its whole sub-tree)."""
+    return {k: v for k, v in cli_parser.dotted_keys(d).items()
+            if not any(k == i or k.startswith(i + ".") for i in ignored)}
 
 
 def _dict_diff(a: dict, b: dict) -> list[str]:
