@@ -139,7 +139,7 @@ LEARNING_PANELS = learning_panels()
 
 def learning_figure(table: dict, colors: dict[str, str], paths: list[str]) -> None:
     """Draw the learning metrics and save the figure to each of ``paths``: one row per env of
-    ``table`` (:func:`swim_jax.analysis.report.learning_table`), one panel per metric of
+    ``table`` (:func:`swim_jax.analysis.report_numbers.learning_table`), one panel per metric of
     :data:`LEARNING_PANELS` against env steps; per label the mean over seeds as a line (colour from
     ``colors``, a dot per chunk), the min–max over seeds shaded. A panel's y axis is logarithmic
     when every value in it is > 0 (the critic loss spans decades)."""
