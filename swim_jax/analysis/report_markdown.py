@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 
 from swim_jax.analysis import aggregate, paper_ref, stats
-from swim_jax.analysis.report_figure import display_name
+from swim_jax.activations import display_name
 from swim_jax.analysis.report_numbers import SCORE_WORDS, Numbers
 from swim_jax.analysis.runs_io import EnvGroup
 

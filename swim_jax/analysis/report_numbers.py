@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from swim_jax.analysis import aggregate, paper_ref, stats
-from swim_jax.analysis.report_figure import LEARNING_PANELS
+from swim_jax.agents.registry import learning_panels
 from swim_jax.analysis.runs_io import EnvGroup, numerics
 from swim_jax.io.bench_results import speedup_pct
 
@@ -83,7 +83,7 @@ def learning_table(groups: dict[str, EnvGroup]) -> dict:
     """``{env: {label: row}}`` for the curve sets with learning metrics (metrics.csv) in at least one
     chunk; envs without any are left out. row = ``{"steps": [chunk end steps], "seeds": n,
     "runs_without_metrics": [paths], metric: {"mean", "min", "max": [per chunk]}}`` for each metric
-    of :data:`swim_jax.analysis.report_figure.LEARNING_PANELS`: the mean, min and max over the seeds with a
+    of :func:`swim_jax.agents.registry.learning_panels` (the figure's panels): the mean, min and max over the seeds with a
     number in that chunk (nan where none has one, e.g. before the first update)."""
     out = {}
     for env, g in groups.items():
@@ -94,7 +94,7 @@ def learning_table(groups: dict[str, EnvGroup]) -> dict:
                 continue
             rows[label] = {"steps": m.steps.tolist(), "seeds": m.n_seeds,
                            "runs_without_metrics": list(c.runs_without_metrics)}
-            rows[label].update({metric: _over_seeds(m.values[metric]) for metric, _ in LEARNING_PANELS})
+            rows[label].update({metric: _over_seeds(m.values[metric]) for metric, _ in learning_panels()})
         if rows:
             out[env] = rows
     return out
