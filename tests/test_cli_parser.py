@@ -38,3 +38,7 @@ def test_dotted_keys_names_every_leaf_by_its_override_path():
     assert cli_parser.dotted_keys(tree) == {"agent.tau": 0.005, "agent.activation.k": 0.5, "agent.hidden": [256, 256],
                                           "seeds": 5}
     assert list(cli_parser.dotted_keys({"b": 1, "a": {"c": 2}})) == ["b", "a.c"]
+
+
+def test_counted_writes_the_plural_only_for_counts_other_than_one():
+    assert [cli_parser.counted(n, "seed") for n in (0, 1, 2, 5)] == ["0 seeds", "1 seed", "2 seeds", "5 seeds"]

@@ -21,6 +21,7 @@ from matplotlib.ticker import FuncFormatter, NullFormatter  # noqa: E402
 
 from swim_jax.activations import ACTIVATIONS, display_name  # noqa: E402
 from swim_jax.agents.registry import learning_panels  # noqa: E402
+from swim_jax.io.cli_parser import counted  # noqa: E402
 
 # the reserved colours of the registry (Swim tab:red, Swish tab:blue, ReLU tab:green)
 COLORS = {name: spec.color for name, spec in ACTIVATIONS.items() if spec.color}
@@ -82,11 +83,6 @@ def group_colors(groups: dict) -> dict[str, str]:
     return curve_colors(label for env in groups for label in groups[env].curves)
 
 
-def _seeds(n: int) -> str:
-    """``"1 seed"``, ``"5 seeds"``: the count in a curve's legend label."""
-    return f"{n} seed{'' if n == 1 else 's'}"
-
-
 def _save(fig, paths: list[str]) -> None:
     """Save ``fig`` to each path (SVG without a date, PNG at 120 dpi) and close it."""
     for p in paths:
@@ -115,7 +111,7 @@ def figure4(groups: dict, paths: list[str]) -> None:
                 color = colors[label]
                 mean = c.returns.mean(axis=1)
                 half = 0.5 * c.returns.std(axis=1, ddof=0)
-                ax.plot(c.steps, mean, color=color, lw=1.6, label=f"{display_name(label)} ({_seeds(c.n_seeds)})")
+                ax.plot(c.steps, mean, color=color, lw=1.6, label=f"{display_name(label)} ({counted(c.n_seeds, 'seed')})")
                 ax.fill_between(c.steps, mean - half, mean + half, color=color, alpha=0.2, lw=0)
             title = env
             if g.truncated_to_step is not None:
@@ -152,7 +148,7 @@ def learning_figure(table: dict, colors: dict[str, str], paths: list[str]) -> No
                 for label, t in table[env].items():
                     s = t[metric]
                     ax.plot(t["steps"], s["mean"], color=colors[label], lw=1.6, marker="o", ms=2.5,
-                            label=f"{display_name(label)} ({_seeds(t['seeds'])})")  # a marker: one chunk shows
+                            label=f"{display_name(label)} ({counted(t['seeds'], 'seed')})")  # a marker: one chunk shows
                     ax.fill_between(t["steps"], s["min"], s["max"], color=colors[label], alpha=0.2, lw=0)
                 values = np.array([v for t in table[env].values() for k in ("min", "max") for v in t[metric][k]])
                 values = values[np.isfinite(values)]

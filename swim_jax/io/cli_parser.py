@@ -43,3 +43,9 @@ def dotted_keys(tree: Mapping, prefix: str = "") -> dict:
         else:
             out[f"{prefix}{key}"] = value
     return out
+
+
+def counted(n: int, noun: str) -> str:
+    """``n`` and ``noun`` as command output and figure legends write a count: ``1 seed``, ``5 seeds``
+    (a plural in ``s``)."""
+    return f"{n} {noun}{'' if n == 1 else 's'}"

@@ -62,6 +62,7 @@ from swim_jax.placement import distributed, local_processes
 from swim_jax.io import learning_log, provenance
 from swim_jax.run import outputs
 from swim_jax.io.checkpoint import Checkpointer, latest_complete_step
+from swim_jax.io.cli_parser import counted
 from swim_jax.config import Config, ConfigError
 from swim_jax.placement.distributed import to_host
 from swim_jax.run.heartbeat import Heartbeat, fmt_duration
@@ -483,8 +484,7 @@ def _progress_line(cfg: Config, layout: LaneLayout, step: int, ev: np.ndarray, d
     means = ev.mean(axis=1)  # [P·S] each lane's mean episode return
     rate = cfg.eval_freq * P * S / dt
     unit = "lane" if layout.swept else "seed"
-    seeds = f"{S} seed{'' if S == 1 else 's'}"
-    over = f"{P} points × {seeds}" if layout.swept else seeds
+    over = f"{P} points × {counted(S, 'seed')}" if layout.swept else counted(S, "seed")
     line = (f"step {step:>8d}/{cfg.total_steps} | {rate:8.0f} env-steps/s ({rate / (P * S):.0f}/{unit}"
             f"{', incl. compile' if first else ''}{', bf16 matmuls' if bf16 else ''}) | eval {means.mean():9.2f} ± {means.std():7.2f} over {over}")
     if layout.swept and P <= 8:
@@ -604,7 +604,7 @@ def main(argv: list[str] | None = None, require_sweep: bool = False) -> int:
         raise
     t = res.timing
     rate = t["env_steps_per_s"]
-    over = f"{t['lanes']} lanes (points × seeds)" if cfg.sweep else f"{cfg.seeds} seed{'' if cfg.seeds == 1 else 's'}"
+    over = f"{t['lanes']} lanes (points × seeds)" if cfg.sweep else counted(cfg.seeds, "seed")
     say(f"done in {_fmt_time(t['wall_time_s'])}; {'%.0f' % rate if rate else '?'} env-steps/s over {over}; "
         f"outputs in {run_dir}")
     return 0
