@@ -1,7 +1,8 @@
 """Run folders written by older code keep working: tests/data/run-folder-8b1b18b/ (written before
 the package moved into rooms; its README says how) is reported, loaded and resumed by today's code.
 
-- the report of it is byte for byte the one the old code wrote (REPORT.md, results.json);
+- the report of it is byte for byte the one the old code wrote (REPORT.md, results.json), but for
+  the report's prose lines reworded since, listed in WORDING_SINCE_8B1B18B;
 - its policy loads (final_policy.npz and the checkpoint at 3000 give the same actor);
 - it pools with a run today's code trains of the same command with two more seeds (one experiment
   of four seeds in the report);
@@ -38,13 +39,30 @@ def _copy(tmp_path) -> str:
     return str(tmp_path / "out" / RUN)
 
 
+# The report's prose changed since 8b1b18b in these lines only (old line -> today's lines); every other
+# byte of REPORT.md, and all of results.json, must be what the old code wrote.
+WORDING_SINCE_8B1B18B = {
+    # 2026-12-07: "smaller budget" split into fewer steps (returns not comparable) and fewer seeds
+    "**Smaller budget than the paper** for Hopper-v5: returns are not comparable with the paper's in absolute "
+    "terms.\n":
+    "**Fewer steps than the paper** for Hopper-v5: returns are not comparable with the paper's in absolute "
+    "terms.\n\n**Fewer seeds than the paper's 5** for Hopper-v5: the max of the mean over fewer seeds is "
+    "noisier (and lies higher on average), and the verdicts below need 5 seeds a side.\n",
+}
+
+
 def test_the_report_of_an_old_folder_is_byte_for_byte_the_old_report(tmp_path, monkeypatch):
     _copy(tmp_path)
     monkeypatch.chdir(tmp_path)  # the report names its command line, relative paths as the old one ran
     assert report.main([f"out/{RUN}", "--out", "rep"]) == 0
     for name in ("REPORT.md", "results.json"):
         with open(tmp_path / "rep" / name, "rb") as new, open(os.path.join(DATA, "report", name), "rb") as old:
-            assert new.read() == old.read(), name
+            want = old.read()
+            if name == "REPORT.md":
+                for before, now in WORDING_SINCE_8B1B18B.items():
+                    assert want.count(before.encode()) == 1, before
+                    want = want.replace(before.encode(), now.encode())
+            assert new.read() == want, name
 
 
 def test_an_old_folders_policy_loads_from_its_final_file_and_its_checkpoint():

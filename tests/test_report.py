@@ -85,7 +85,26 @@ def test_table2_values_by_hand(tmp_path, walker, capsys):
     assert "different env version and budget" in md
     assert "standard deviation over seeds at that same evaluation" in md
     assert "1,000,000 steps per run" in md and "| Walker2d-v5 | 200 | 100 | 5 | Swim 2, Swish 2 | float32 |" in md
-    assert "Evidence too weak" in md and "fewer than 5" in md  # 2 seeds
+    assert "Evidence too weak" in md and "at least 5 each are needed" in md  # 2 seeds
+    # 200 steps and 2 seeds against the paper's 1M and 5: two warnings, each naming its own shortfall
+    assert "**Fewer steps than the paper** for Walker2d-v5: returns are not comparable" in md
+    assert "**Fewer seeds than the paper's 5** for Walker2d-v5: the max of the mean" in md
+
+
+def test_a_paper_length_run_with_fewer_seeds_warns_of_the_seeds_only(tmp_path, capsys):
+    """1M steps (the paper's) on one seed a side: the seeds warning, not the steps one; the verdict
+    gives no bootstrap CI (one seed makes it a single point) and names both seed counts."""
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    curve = np.linspace(0.0, 3000.0, 201)[:, None]
+    args = [write_run(runs, a, act=a, returns=curve + off, total_steps=1_000_000, eval_freq=5000)
+            for a, off in (("swim", 100.0), ("swish", 0.0))]
+    rc, _, err = run_report(args + ["--out", tmp_path / "out", "--n-boot", "200"], capsys)
+    assert rc == 0, err
+    md = (tmp_path / "out" / "REPORT.md").read_text()
+    assert "Fewer steps than the paper" not in md
+    assert "**Fewer seeds than the paper's 5** for Walker2d-v5" in md
+    assert "CI of the difference n/a (one seed on a side)" in md and "Swim has 1 seed and Swish 1 seed" in md
 
 
 def test_figures_written_and_non_empty(tmp_path, walker, capsys):

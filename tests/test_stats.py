@@ -148,12 +148,15 @@ def test_verdict_wording():
     assert stats.verdict(worse).startswith("Swim is worse than Swish")
     few = stats.compare([10, 11, 12], [1, 2, 1.5], "max", n_boot=2000)
     v = stats.verdict(few)
-    assert v.startswith("Evidence too weak") and "fewer than 5" in v
+    assert v.startswith("Evidence too weak") and "Swim has 3 seeds and Swish 3 seeds (at least 5 each" in v
     overlap = stats.compare([1, 5, 2, 6, 3], [2, 4, 3, 5, 1], "final", n_boot=2000)
     v = stats.verdict(overlap)
     assert v.startswith("Evidence too weak") and "p ≥ 0.05" in v and "includes 0" in v
     single = stats.compare([1.0], [2.0], "final", n_boot=500)
-    assert single.welch is None and "no t-test possible" in stats.verdict(single)
+    v = stats.verdict(single)
+    assert single.welch is None and "no t-test possible" in v and "Swim has 1 seed and Swish 1 seed" in v
+    # one seed a side: the bootstrap "interval" is the point -1.0; the verdict gives no CI and no CI reason
+    assert single.diff_ci == (-1.0, -1.0) and "CI of the difference n/a" in v and "includes 0" not in v
 
 
 def test_verdict_wording_when_the_means_are_equal():

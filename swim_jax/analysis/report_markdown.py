@@ -84,11 +84,15 @@ def _budget_section(groups: dict[str, EnvGroup], configs: dict[str, dict]) -> li
         rows.append([env, steps, str(g.eval_freq), str(cfg.get("eval_episodes", "?")), seeds,
                      _precision_cell(g, str(cfg.get("precision", "?")))])
     L += [_md_table(["env", "steps per run", "eval every", "episodes per eval", "seeds", "precision"], rows), ""]
-    small = [env for env, g in groups.items() if g.total_steps < pb["total_steps"]
-             or min(c.n_seeds for c in g.curves.values()) < pb["seeds"]]
-    if small:
-        L += [f"**Smaller budget than the paper** for {', '.join(small)}: returns are not comparable "
+    short = [env for env, g in groups.items() if g.total_steps < pb["total_steps"]]
+    if short:
+        L += [f"**Fewer steps than the paper** for {', '.join(short)}: returns are not comparable "
               f"with the paper's in absolute terms.", ""]
+    few = [env for env, g in groups.items() if min(c.n_seeds for c in g.curves.values()) < pb["seeds"]]
+    if few:
+        L += [f"**Fewer seeds than the paper's {pb['seeds']}** for {', '.join(few)}: the max of the mean "
+              f"over fewer seeds is noisier (and lies higher on average), and the verdicts below need "
+              f"{stats.MIN_SEEDS} seeds a side.", ""]
     warns = [f"- {env}: {w}" for env, g in groups.items() for w in g.warnings]
     if warns:
         L += ["**Config differences between activations** (beyond the activation itself):", ""] + warns + [""]

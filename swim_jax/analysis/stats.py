@@ -18,6 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from swim_jax.io.cli_parser import counted
+
 # ------------------------------------------------------------------------------------------------
 # curve summaries (the paper's Table II)
 # ------------------------------------------------------------------------------------------------
@@ -392,15 +394,18 @@ def verdict(c: Comparison, x_name: str = "Swim", y_name: str = "Swish") -> str:
         relation = f"is {'higher' if c.diff > 0 else 'lower'} than {y_name}'s by {_fmt_num(abs(c.diff))}"
     lo, hi = c.diff_ci
     p = c.welch.p_two_sided if c.welch is not None else float("nan")
+    spread = min(c.n_x, c.n_y) >= 2  # one seed on a side: the bootstrap CI is a single point, not an interval
+    ci = f"[{_fmt_num(lo)}, {_fmt_num(hi)}]" if spread else "n/a (one seed on a side)"
     observed = (f"{x_name}'s mean per-seed {c.score} score {relation} "
-                f"(95% bootstrap CI of the difference [{_fmt_num(lo)}, {_fmt_num(hi)}], Welch p = {fmt_p(p)}, "
+                f"(95% bootstrap CI of the difference {ci}, Welch p = {fmt_p(p)}, "
                 f"P({x_name} > {y_name}) = {c.prob_improvement:.2f})")
     reasons = []
     if min(c.n_x, c.n_y) < MIN_SEEDS:
-        reasons.append(f"only {c.n_x} vs {c.n_y} seeds (fewer than {MIN_SEEDS})")
+        reasons.append(f"{x_name} has {counted(c.n_x, 'seed')} and {y_name} {counted(c.n_y, 'seed')} "
+                       f"(at least {MIN_SEEDS} each are needed)")
     if not (p < ALPHA):
         reasons.append(f"p ≥ {ALPHA}" if math.isfinite(p) else "no t-test possible")
-    if lo <= 0.0 <= hi:
+    if spread and lo <= 0.0 <= hi:
         reasons.append("the CI of the difference includes 0")
     if reasons:
         return f"Evidence too weak to conclude: {observed}; " + ", ".join(reasons) + "."
