@@ -100,8 +100,8 @@ def sentence(p: Pair, b_label: str) -> str:
         return (f"Yes: with {b_label} TD3 learns differently here (A − B: "
                 + "; ".join(fmt(p.comparisons[s]) for s in changed) + ").")
     n = min(c.n_x for c in p.comparisons.values())
-    return (f"No difference detected with {n} seeds (A − B: " + "; ".join(fmt(c) for c in p.comparisons.values())
-            + "); a smaller effect is not ruled out.")
+    return (f"No difference detected with {cli_parser.counted(n, 'seed')} (A − B: "
+            + "; ".join(fmt(c) for c in p.comparisons.values()) + "); a smaller effect is not ruled out.")
 
 
 def compare_sets(a_dir: str, b_dir: str, at_step: int | None = None, differ: tuple[str, ...] = DIFFER,
