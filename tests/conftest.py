@@ -34,7 +34,7 @@ def x64():
 
 
 # --------------------------------------------------------------------------- trained policies
-# (tests/test_policy.py, tests/test_evaluate.py: swim_jax.policy.policy and swim_jax.analysis.evaluate)
+# (tests/test_policy.py, tests/test_evaluate.py: swim_jax.policy and swim_jax.analysis.evaluate)
 
 POLICY_TINY = ["total_steps=2000", "eval_freq=1000", "learning_starts=500", "eval_episodes=3", "replay_size=4000",
                "agent.hidden=[16,16]", "agent.batch_size=32", "env.backend=mujoco", "lane_groups=false"]

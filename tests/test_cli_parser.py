@@ -42,3 +42,10 @@ def test_dotted_keys_names_every_leaf_by_its_override_path():
 
 def test_counted_writes_the_plural_only_for_counts_other_than_one():
     assert [cli_parser.counted(n, "seed") for n in (0, 1, 2, 5)] == ["0 seeds", "1 seed", "2 seeds", "5 seeds"]
+
+
+def test_one_line_makes_an_exception_one_line_of_an_error_message():
+    assert cli_parser.one_line(ValueError("bad value\n  in line 3\tof x.yaml")) == "bad value in line 3 of x.yaml"
+    assert cli_parser.one_line(KeyError()) == "KeyError"  # no text: the type's name
+    assert cli_parser.one_line(OSError("x" * 400)) == "x" * 300
+    assert cli_parser.one_line(OSError("abcdef"), limit=3) == "abc"

@@ -19,6 +19,7 @@ import scipy.stats
 
 from swim_jax.analysis import evaluate
 from swim_jax.policy import policy as pol
+from swim_jax.policy import run_folder
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -75,7 +76,7 @@ def test_table_and_json_of_a_short_run(policy_runs, capsys, tmp_path):
         np.testing.assert_allclose(row["ours"]["mean"], res.evaluations[-1, pos].mean(), rtol=1e-12)
         # Gymnasium: the policy's returns from reset seeds 10..13, and a t-based 95 % CI
         g = row["gymnasium"]
-        policy = pol.load_policy(res.run_dir, seed=pos)
+        policy = run_folder.load_policy(res.run_dir, seed=pos)
         returns, lengths = direct_gymnasium_episodes(policy, "Hopper-v5", range(10, 14))
         np.testing.assert_array_equal(g["returns"], returns)
         assert g["lengths"] == lengths and g["time_limit"] == 1000
@@ -123,7 +124,7 @@ def test_export_and_the_readme_numpy_lines(policy_runs, capsys, tmp_path, no_jax
     snippet = blocks[0]
     assert "swim_jax" not in snippet and len(snippet.strip().splitlines()) <= 30
     obs = np.random.default_rng(0).normal(size=(20, 11)) * 2
-    point = pol.run_folders(policy_runs["sweep"].run_dir)[1]
+    point = run_folder.run_folders(policy_runs["sweep"].run_dir)[1]
     for i, (run, seed) in enumerate(((policy_runs["f64"].run_dir, 1), (point, 0))):
         work = tmp_path / f"w{i}"
         work.mkdir()
@@ -134,7 +135,7 @@ def test_export_and_the_readme_numpy_lines(policy_runs, capsys, tmp_path, no_jax
         p = subprocess.run([sys.executable, "-c", code], cwd=work, env=no_jax_env, capture_output=True, text=True,
                            timeout=120)
         assert p.returncode == 0, p.stderr[-2000:]
-        ref = pol.load_policy(run, seed=seed)
+        ref = run_folder.load_policy(run, seed=seed)
         got = np.load(work / "actions.npy")
         assert got.dtype == ref.dtype
         np.testing.assert_allclose(got, ref(obs), rtol=0, atol=1e-12 if ref.dtype == np.float64 else 2e-6)
@@ -238,7 +239,7 @@ def test_ours_episodes_bad_input_is_one_line_exit_2(extra, message, policy_runs,
 def test_ours_episodes_refuses_sweep_points_and_needs_the_jax_side(policy_runs, capsys, tmp_path):
     from swim_jax.run.our_evaluation import our_episodes
 
-    point = pol.run_folders(policy_runs["sweep"].run_dir)[0]
+    point = run_folder.run_folders(policy_runs["sweep"].run_dir)[0]
     for argv, kwargs, message in (
             ([point, "--ours-episodes", "4"], {"our_episodes": our_episodes}, "evaluates plain runs only"),
             ([policy_runs["f64"].run_dir, "--ours-episodes", "4"], {}, "needs the JAX side")):
@@ -263,7 +264,7 @@ def test_in_env_runs_the_policy_in_another_version(policy_runs, capsys, tmp_path
     row = data["rows"][0]
     assert data["in_env"] == "Hopper-v4" and row["env_id"] == "Hopper-v4" and row["trained_env_id"] == "Hopper-v5"
     assert row["ours"] is None and row["difference_ci95"] is None and row["welch_p"] is None
-    policy = pol.load_policy(run, seed=1)
+    policy = run_folder.load_policy(run, seed=1)
     v4 = direct_gymnasium_returns(policy, "Hopper-v4", range(5, 8))
     np.testing.assert_array_equal(row["gymnasium"]["returns"], v4)
     # the versions' models differ, so the same policy and reset seeds give other returns in v5

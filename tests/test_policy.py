@@ -1,4 +1,4 @@
-"""``swim_jax.policy.policy``: trained actors as NumPy functions, checked against the JAX actor and Gymnasium.
+"""``swim_jax.policy`` (policy, run_folder, gymnasium_env): trained actors as NumPy functions, checked against the JAX actor and Gymnasium.
 
 References: the registry's JAX activations (every entry's NumPy twin), the flax actor of
 swim_jax/agents/networks.py (random parameters for every activation, learnable or not, float32/float64 and
@@ -25,6 +25,8 @@ from swim_jax.agents.td3 import TD3, ActivationConfig, TD3Config
 from swim_jax.policy import activations as activations_np
 from swim_jax.run import outputs, programs
 from swim_jax.policy import policy as pol
+from swim_jax.policy import gymnasium_env
+from swim_jax.policy import run_folder
 from swim_jax.activations import ACTIVATIONS, _check_registry
 from swim_jax.run.render import unflatten
 
@@ -102,7 +104,7 @@ def test_round_bfloat16_is_jax_conversion():
 def test_known_xml_notices_are_the_envs():
     from swim_jax.envs.base import KNOWN_XML_NOTICES
 
-    assert pol.KNOWN_XML_NOTICES == KNOWN_XML_NOTICES
+    assert gymnasium_env.KNOWN_XML_NOTICES == KNOWN_XML_NOTICES
 
 
 # --------------------------------------------------------------------------- the actor
@@ -119,7 +121,7 @@ def random_actor(name: str, learnable: bool, dtype, matmul_dtype=None, seed: int
     flat = {k: v * (0.6 + 0.2 * i) if "/act_" in k else v for i, (k, v) in enumerate(sorted(flat.items()))}
     cfg = {"env": {"id": "Hopper-v5"}, "agent": {"hidden": [16, 12], "activation": {"name": name, "learnable": learnable,
                                                                                     **values}}}
-    policy = pol.policy_from_leaves(flat, cfg, "test", np.dtype(dtype), "full" if matmul_dtype is None else "bfloat16",
+    policy = run_folder.policy_from_leaves(flat, cfg, "test", np.dtype(dtype), "full" if matmul_dtype is None else "bfloat16",
                                     spec=(OBS_SIZE, np.asarray(LOW), np.asarray(HIGH)))
     return agent, jax.tree.map(jnp.asarray, unflatten(flat)), policy
 
@@ -156,7 +158,7 @@ def test_numpy_policy_with_bfloat16_matmuls_equals_the_jax_actor(name, learnable
     got = policy(obs)
     err = np.abs(got - ref)
     assert np.mean(err <= 1e-6) >= 0.95 and err.max() <= 2e-2, (np.mean(err <= 1e-6), err.max())
-    full = pol._with(policy, None, "full")(obs)  # the rounding matters: without it most actions differ
+    full = run_folder._with(policy, None, "full")(obs)  # the rounding matters: without it most actions differ
     assert np.mean(np.abs(full - ref) <= 1e-6) < 0.5
 
 
@@ -198,7 +200,7 @@ def test_load_policy_of_a_learnable_float64_run_equals_its_jax_actor(policy_runs
     res = policy_runs["f64"]
     obs = observations()
     for pos, seed in enumerate((0, 1)):
-        policy = pol.load_policy(res.run_dir, seed=seed)
+        policy = run_folder.load_policy(res.run_dir, seed=seed)
         assert policy.dtype == np.float64 and policy.matmul_dtype == "full" and policy.env_id == "Hopper-v5"
         learned = [layer["k"] for layer in policy.layer_params]
         np.testing.assert_array_equal(learned, [float(res.final_actor[f"params/body/act_{i}/k"][pos]) for i in (0, 1)])
@@ -214,17 +216,17 @@ def test_load_policy_of_sweep_points_uses_each_points_value(policy_runs):
     obs = observations()
     with pytest.raises(pol.PolicyError, match=r"is a sweep of 2 points; pass one of its point folders: "
                                               r"points/beta=0.5, points/beta=2"):
-        pol.load_policy(res.run_dir)
-    points = pol.run_folders(res.run_dir)
+        run_folder.load_policy(res.run_dir)
+    points = run_folder.run_folders(res.run_dir)
     assert [os.path.basename(p) for p in points] == ["beta=0.5", "beta=2"]
     for lane, (folder, beta) in enumerate(zip(points, (0.5, 2.0))):
-        policy = pol.load_policy(folder, seed=0)
+        policy = run_folder.load_policy(folder, seed=0)
         assert policy.matmul_dtype == "bfloat16" and policy.dtype == np.float32
         assert policy.layer_params == ({"beta": beta}, {"beta": beta})
         ref = jax_actor(res, lane, {"agent.activation.beta": beta})(obs)
         err = np.abs(policy(obs) - ref)
         assert np.mean(err <= 1e-6) >= 0.95 and err.max() <= 2e-2
-    assert pol.run_policies(points[1]).lane_offset == 1
+    assert run_folder.run_policies(points[1]).lane_offset == 1
 
 
 def checkpoint_actor_by_structure(res, step: int, lane: int):
@@ -267,35 +269,35 @@ def checkpoint_actor_by_structure(res, step: int, lane: int):
 def test_load_policy_at_a_checkpoint_step(policy_runs):
     res = policy_runs["f64"]
     obs = observations()
-    run = pol.run_policies(res.run_dir)
+    run = run_folder.run_policies(res.run_dir)
     assert run.steps == (1000, 2000) and run.checkpoint_steps == (1000, 2000)
-    early = pol.load_policy(res.run_dir, seed=1, step=1000)
+    early = run_folder.load_policy(res.run_dir, seed=1, step=1000)
     assert early.source["step"] == 1000
     ref = jax_actor(res, 1, params=checkpoint_actor_by_structure(res, 1000, 1))(obs)
     np.testing.assert_allclose(early(obs), ref, rtol=0, atol=1e-12)
-    assert np.abs(early(obs) - pol.load_policy(res.run_dir, seed=1)(obs)).max() > 1e-6  # another policy
+    assert np.abs(early(obs) - run_folder.load_policy(res.run_dir, seed=1)(obs)).max() > 1e-6  # another policy
     # the final checkpoint read through the checkpoint path equals final_policy.npz exactly
     from swim_jax.policy import checkpoint as policy_checkpoint
 
-    names = pol.actor_leaf_names(run.config)
-    leaves = policy_checkpoint.actor_leaves(run.checkpoints, 2000, 1, names, pol.actor_leaf_shapes(run.config, 11, 3))
+    names = run_folder.actor_leaf_names(run.config)
+    leaves = policy_checkpoint.actor_leaves(run.checkpoints, 2000, 1, names, run_folder.actor_leaf_shapes(run.config, 11, 3))
     for name in names:
         np.testing.assert_array_equal(leaves[name], res.final_actor[name][1])
     # a sweep point's lanes in the sweep's checkpoints
     sweep = policy_runs["sweep"]
-    point = pol.run_folders(sweep.run_dir)[1]
+    point = run_folder.run_folders(sweep.run_dir)[1]
     ref = jax_actor(sweep, 1, {"agent.activation.beta": 2.0}, checkpoint_actor_by_structure(sweep, 1000, 1))(obs)
-    err = np.abs(pol.load_policy(point, seed=0, step=1000)(obs) - ref)
+    err = np.abs(run_folder.load_policy(point, seed=0, step=1000)(obs) - ref)
     assert np.mean(err <= 1e-6) >= 0.95 and err.max() <= 2e-2
 
 
 def test_load_policy_errors(policy_runs, tmp_path):
     run = policy_runs["f64"].run_dir
     for call, message in [
-        (lambda: pol.load_policy(str(tmp_path / "nope")), r"nope: no such run folder"),
-        (lambda: pol.load_policy(str(tmp_path)), r"no config.yaml \(not a run folder of python -m swim_jax.train\)"),
-        (lambda: pol.load_policy(run, seed=2), r"seed 2 is not in .*: its seeds are 0..1"),
-        (lambda: pol.load_policy(run, step=1500), r"no policy at step 1500; valid steps: checkpoints at 1000, 2000; "
+        (lambda: run_folder.load_policy(str(tmp_path / "nope")), r"nope: no such run folder"),
+        (lambda: run_folder.load_policy(str(tmp_path)), r"no config.yaml \(not a run folder of python -m swim_jax.train\)"),
+        (lambda: run_folder.load_policy(run, seed=2), r"seed 2 is not in .*: its seeds are 0..1"),
+        (lambda: run_folder.load_policy(run, step=1500), r"no policy at step 1500; valid steps: checkpoints at 1000, 2000; "
                                                   r"final_policy.npz at 2000"),
     ]:
         with pytest.raises(pol.PolicyError, match=message):
@@ -308,7 +310,7 @@ def test_load_policy_errors(policy_runs, tmp_path):
 def test_policy_runs_without_jax(policy_runs, no_jax_env, tmp_path):
     """In a process where importing jax fails: load_policy (a run, a sweep point), the forward
     pass, export and load_exported; the actions equal this process's."""
-    run, point = policy_runs["f64"].run_dir, pol.run_folders(policy_runs["sweep"].run_dir)[0]
+    run, point = policy_runs["f64"].run_dir, run_folder.run_folders(policy_runs["sweep"].run_dir)[0]
     obs = observations(4)
     np.save(tmp_path / "obs.npy", obs)
     code = f"""
@@ -320,7 +322,7 @@ except ImportError:
     pass
 else:
     raise SystemExit("jax imported")
-from swim_jax.policy.policy import load_exported, load_policy
+from swim_jax.policy import load_exported, load_policy
 obs = np.load({str(tmp_path / 'obs.npy')!r})
 a = load_policy({run!r}, seed=1)
 b = load_policy({point!r}, seed=0)
@@ -331,8 +333,8 @@ assert not any(m.split(".")[0] in ("jax", "jaxlib", "flax", "orbax") for m in sy
     p = subprocess.run([sys.executable, "-c", code], env=no_jax_env, capture_output=True, text=True, timeout=300)
     assert p.returncode == 0, p.stderr[-2000:]
     out = np.load(tmp_path / "out.npy")
-    np.testing.assert_array_equal(out[0], pol.load_policy(run, seed=1)(obs))
-    np.testing.assert_array_equal(out[1], pol.load_policy(point, seed=0)(obs))
+    np.testing.assert_array_equal(out[0], run_folder.load_policy(run, seed=1)(obs))
+    np.testing.assert_array_equal(out[1], run_folder.load_policy(point, seed=0)(obs))
     np.testing.assert_array_equal(out[2], out[0])
 
 
@@ -342,14 +344,14 @@ def test_gymnasium_return_equals_our_envs_for_the_same_state_and_actions(policy_
     returns the same rewards, step for step, and terminates at the same step; our env driven by
     the JAX actor on its own observations gives the same return to 1e-9."""
     res = policy_runs["f64"]
-    policy = pol.load_policy(res.run_dir, seed=1)
+    policy = run_folder.load_policy(res.run_dir, seed=1)
     env = envs.make("Hopper-v5", backend="mujoco")
     assert env.dtype == jnp.float64
     reset = jax.jit(lambda q, v: env.reset(jax.random.PRNGKey(0)).replace(pipeline_state=env.physics_reset(q, v)))
     observe = jax.jit(lambda st: st.replace(obs=env.observation(st.pipeline_state)))
     step = jax.jit(env.step)
     act = jax_actor(res, 1)
-    genv = pol.make_gymnasium("Hopper-v5")
+    genv = gymnasium_env.make_gymnasium("Hopper-v5")
     lengths = []
     for reset_seed in (0, 1, 2):
         obs, _ = genv.reset(seed=reset_seed)

@@ -30,8 +30,8 @@ from swim_jax.agents.base import ActivationConfig
 from swim_jax.agents.sac import SAC, SACConfig, squashed_gaussian
 from swim_jax.agents.td3 import TD3
 from swim_jax.io import learning_log, tensorboard_log
-from swim_jax.policy import load_policy
-from swim_jax.policy.policy import AGENT_HEADS, load_exported
+from swim_jax.policy import load_exported, load_policy
+from swim_jax.policy.run_folder import AGENT_HEADS
 from swim_jax.run import train
 
 OBS, ACT, B = 3, 2, 6

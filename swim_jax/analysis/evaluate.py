@@ -6,7 +6,7 @@
     python -m swim_jax.evaluate RUN_DIR --seed 0 --export cheetah_swim.npz        # a self-contained policy file
 
 For every run folder (a sweep folder stands for its points) and seed, the policy
-(``swim_jax.policy.policy.load_policy``: NumPy, no JAX; from ``final_policy.npz``, or ``--step S``'s
+(``swim_jax.policy.run_folder.load_policy``: NumPy, no JAX; from ``final_policy.npz``, or ``--step S``'s
 checkpoint) runs ``--episodes`` episodes in ``gymnasium.make(env.id, max_episode_steps=...)``,
 Gymnasium's own env on MuJoCo C, with deterministic actions (the actor's output, as our evaluations
 act). Episode ``e`` starts from ``reset(seed=env_seed + e)``, so every seed and run sees the same
@@ -60,8 +60,9 @@ import numpy as np
 from swim_jax.io import cli_parser
 from swim_jax.io.schedule import Schedule
 from swim_jax.analysis import stats
-from swim_jax.policy.policy import (Policy, PolicyError, RunPolicies, env_spec, load_policy, make_gymnasium,
-                                    run_folders, run_policies)
+from swim_jax.policy.gymnasium_env import env_spec, make_gymnasium
+from swim_jax.policy.policy import Policy, PolicyError
+from swim_jax.policy.run_folder import RunPolicies, load_policy, run_folders, run_policies
 
 DEFAULT_EPISODES = 100
 

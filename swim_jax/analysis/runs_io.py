@@ -185,7 +185,7 @@ def load_run(path: str, at_step: int | None = None) -> Run:
         first_seed = int(cfg.get("first_seed", 0))
         base_seed = int(cfg.get("seed", 0))
     except (KeyError, TypeError, ValueError) as e:
-        raise RunError(f"{cfg_path}: missing or invalid key {_one_line(e)}") from None
+        raise RunError(f"{cfg_path}: missing or invalid key {cli_parser.one_line(e)}") from None
     if not isinstance(env, str):
         raise RunError(f"{cfg_path}: env.id must be a string")
     if total_steps % eval_freq:
@@ -224,7 +224,7 @@ def _check_steps(path: str, plan: Schedule, n: int) -> None:
     try:
         steps = np.load(file, allow_pickle=False)
     except (ValueError, OSError, EOFError) as e:
-        raise RunError(f"{file}: unreadable .npy ({_one_line(e)})") from None
+        raise RunError(f"{file}: unreadable .npy ({cli_parser.one_line(e)})") from None
     if steps.shape != (n,) or not np.array_equal(steps, plan.eval_steps(n)):
         raise RunError(f"{file}: steps {steps.tolist()[:4]}... do not match config.yaml's schedule "
                        f"(evaluation i at i · eval_freq={plan.eval_freq}, {n} evaluations)")
@@ -273,7 +273,7 @@ def _read_config(cfg_path: str) -> dict:
         with open(cfg_path) as f:
             cfg = yaml.safe_load(f)
     except (yaml.YAMLError, OSError, UnicodeDecodeError) as e:
-        raise RunError(f"{cfg_path}: unreadable YAML ({_one_line(e)})") from None
+        raise RunError(f"{cfg_path}: unreadable YAML ({cli_parser.one_line(e)})") from None
     if not isinstance(cfg, dict):
         raise RunError(f"{cfg_path}: expected a mapping, got {type(cfg).__name__}")
     return cfg
@@ -285,7 +285,7 @@ def _read_returns(ev_path: str, expected: int, seeds: int) -> np.ndarray:
     try:
         returns = np.load(ev_path, allow_pickle=False)
     except (ValueError, OSError, EOFError) as e:
-        raise RunError(f"{ev_path}: unreadable .npy ({_one_line(e)})") from None
+        raise RunError(f"{ev_path}: unreadable .npy ({cli_parser.one_line(e)})") from None
     if returns.ndim != 2 or returns.shape[1] != seeds or not 1 <= returns.shape[0] <= expected:
         raise RunError(f"{ev_path}: shape {returns.shape} does not match config.yaml "
                        f"(expected [<= {expected} evaluations, {seeds} seeds])")
@@ -308,7 +308,7 @@ def load_metrics(path: str, eval_freq: int, total_steps: int, seeds: list[int]) 
     try:
         m = learning_log.read(p)
     except (OSError, UnicodeDecodeError, csv.Error, KeyError, ValueError, TypeError) as e:
-        raise RunError(f"{p}: unreadable ({_one_line(e)}; expected the columns "
+        raise RunError(f"{p}: unreadable ({cli_parser.one_line(e)}; expected the columns "
                        f"{','.join(learning_log.COLUMNS)})") from None
     column = {s: j for j, s in enumerate(seeds)}
     n = int(m["step"].max()) // eval_freq if m["step"].size else 0
@@ -400,7 +400,7 @@ def _sweep_labels(table: str) -> list[str]:
         with open(table, newline="") as f:
             rows = [r for r in csv.reader(f) if r]
     except (OSError, UnicodeDecodeError, csv.Error) as e:
-        raise RunError(f"{table}: unreadable ({_one_line(e)})") from None
+        raise RunError(f"{table}: unreadable ({cli_parser.one_line(e)})") from None
     if not rows or rows[0][0] != "point":
         raise RunError(f"{table}: not a sweep table (expected a CSV header starting with 'point', "
                        f"as written by python -m swim_jax.sweep)")
@@ -424,7 +424,7 @@ def _point_suffix(path: str, act: dict) -> str:
         with open(p) as f:
             values = json.load(f)["values"]
     except (OSError, ValueError, KeyError, TypeError) as e:
-        raise RunError(f"{p}: unreadable ({_one_line(e)})") from None
+        raise RunError(f"{p}: unreadable ({cli_parser.one_line(e)})") from None
     other = [f"{k.rsplit('.', 1)[-1]}={float(v):g}" for k, v in values.items() if not k.startswith("agent.activation.")]
     return f"[{','.join(other)}]" if other else ""
 
@@ -536,11 +536,6 @@ def _pos_int(v, name: str) -> int:
     if isinstance(v, bool) or not isinstance(v, (int, float)) or v != int(v) or int(v) <= 0:
         raise ValueError(f"{name}={v!r} (must be a positive integer)")
     return int(v)
-
-
-def _one_line(e: BaseException) -> str:
-    s = str(e) or type(e).__name__
-    return " ".join(s.split())[:300]
 
 
 __all__ = ["RunError", "Run", "Curves", "EnvGroup", "activation_label", "load_run", "group_runs",

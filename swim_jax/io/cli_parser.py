@@ -49,3 +49,10 @@ def counted(n: int, noun: str) -> str:
     """``n`` and ``noun`` as command output and figure legends write a count: ``1 seed``, ``5 seeds``
     (a plural in ``s``)."""
     return f"{n} {noun}{'' if n == 1 else 's'}"
+
+
+def one_line(e: BaseException, limit: int = 300) -> str:
+    """An exception as one line of an error message: its text (or its type's name when it has none)
+    with every run of whitespace made one space, cut at ``limit`` characters."""
+    s = str(e) or type(e).__name__
+    return " ".join(s.split())[:limit]

@@ -1,4 +1,4 @@
-"""The actor of one lane out of a training checkpoint (``checkpoints/<step>/``), for ``swim_jax.policy.policy``.
+"""The actor of one lane out of a training checkpoint (``checkpoints/<step>/``), for ``swim_jax.policy.run_folder``.
 
 swim_jax/io/checkpoint.py stores the whole training state (``(TrainState, evaluations)``) under the
 names of its leaves (``0.agent.actor.params.body.dense_0.kernel``): the online actor is the leaves
@@ -6,8 +6,8 @@ under the path that ends in ``actor`` (not ``actor_target``), found by name, eac
 front (``[lanes, …]``) and checked against the shapes the config implies. Checkpoints written before
 leaf names hold the leaves as ``"00000"``, ``"00001"``, … in ``jax.tree.leaves`` order; there the
 actor is the first run of consecutive leaves shaped like the actor (its head as wide as the agent's,
-:func:`swim_jax.policy.policy.actor_leaf_shapes`): every agent's state inside ``TrainState``
-starts with it, its leaves in the sorted order of :func:`swim_jax.policy.policy.actor_leaf_names`;
+:func:`swim_jax.policy.run_folder.actor_leaf_shapes`): every agent's state inside ``TrainState``
+starts with it, its leaves in the sorted order of :func:`swim_jax.policy.run_folder.actor_leaf_names`;
 what comes before it (keys, env state, replay buffer) has other shapes, and the critics carry a
 critic axis. Only those leaves are read (orbax partial restore), so this works for checkpoints with
 or without the replay buffer inside. Reading orbax needs JAX, so this module is imported only when
@@ -80,7 +80,7 @@ def find_actor(leaves: dict[str, tuple[tuple[int, ...], np.dtype]], shapes: Sequ
 def actor_leaves(checkpoints: str, step: int, lane: int, names: Sequence[str],
                  shapes: Sequence[tuple[int, ...]]) -> dict[str, np.ndarray]:
     """``{name: array}`` of lane ``lane``'s actor at checkpoint ``step`` under ``checkpoints``:
-    ``names`` are the actor's leaf names in flattening order (``swim_jax.policy.policy.actor_leaf_names``),
+    ``names`` are the actor's leaf names in flattening order (``swim_jax.policy.run_folder.actor_leaf_names``),
     ``shapes`` their shapes without the lane axis. ValueError when the checkpoint has no such leaves
     or no such lane."""
     path = os.path.join(checkpoints, str(int(step)), "default")
