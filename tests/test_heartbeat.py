@@ -1,11 +1,11 @@
-"""The run's sign of life (swim_jax/run/heartbeat.py) and its ETA by phase (swim_jax/run/train.py)."""
+"""The run's sign of life (swim_jax/run/heartbeat.py) and its ETA by phase (swim_jax/run/progress.py)."""
 
 from __future__ import annotations
 
 import time
 
 from swim_jax import config as cfgmod
-from swim_jax.run import train
+from swim_jax.run import progress
 from swim_jax.run.heartbeat import Heartbeat
 
 
@@ -59,18 +59,18 @@ def test_heartbeat_thread_prints_while_the_caller_blocks():
 
 def test_chunks_left_split_the_warmup_from_the_learning_phase():
     cfg = cfgmod.resolve("walker_swim", ["total_steps=300000"])  # eval_freq 5000, learning_starts 25000
-    assert train._chunks_left(cfg, 0) == (5, 55)
-    assert train._chunks_left(cfg, 3) == (2, 55)
-    assert train._chunks_left(cfg, 5) == (0, 55)
-    assert train._chunks_left(cfg, 60) == (0, 0)
+    assert progress.chunks_left(cfg, 0) == (5, 55)
+    assert progress.chunks_left(cfg, 3) == (2, 55)
+    assert progress.chunks_left(cfg, 5) == (0, 55)
+    assert progress.chunks_left(cfg, 60) == (0, 0)
     odd = cfgmod.resolve("walker_swim", ["total_steps=20000", "learning_starts=7000"])  # chunk 2 is mixed
-    assert train._chunks_left(odd, 0) == (1, 3)
+    assert progress.chunks_left(odd, 0) == (1, 3)
     none = cfgmod.resolve("walker_swim", ["total_steps=20000", "learning_starts=0"])
-    assert train._chunks_left(none, 1) == (0, 3)
+    assert progress.chunks_left(none, 1) == (0, 3)
 
 
 def test_eta_times_each_phase_by_its_own_iterations():
-    clock = train._Clock(0.0)
+    clock = progress.Clock(0.0)
     clock.iteration_done(40.0, learning=False, first=True)  # with the compilation
     eta = clock.eta(4, 55)
     assert not eta.known and eta.seconds == 59 * 40.0 and str(eta).startswith(">0:39:20 (learning phase not timed")

@@ -31,8 +31,9 @@ point, ``points/<label>/`` with the files above (its config.yaml is the point's 
 ``swim_jax.analysis.report`` and ``swim_jax.run.render`` read a point like any run). Checkpoints stay at the top.
 
 Modules: swim_jax/run/programs.py builds the jitted program and its per-lane inputs (cached per
-process), swim_jax/run/outputs.py writes the run folder's files, and this module runs the loop
-(:func:`run`) and the command line.
+process), swim_jax/run/outputs.py writes the run folder's files, swim_jax/run/progress.py keeps
+the clock and writes the progress line, and this module runs the loop (:func:`run`) and the
+command line.
 
 Several processes or hosts (``--coordinator host:port --num-processes N --process-id i``, or the
 ``JAX_*``/SLURM environment; swim_jax/placement/distributed.py, docs/DISTRIBUTED.md) split the lanes over all
@@ -49,7 +50,7 @@ import contextlib
 import os
 import sys
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Callable
 
 import jax
@@ -66,6 +67,7 @@ from swim_jax.io.cli_parser import counted
 from swim_jax.config import Config, ConfigError
 from swim_jax.placement.distributed import to_host
 from swim_jax.run.heartbeat import Heartbeat, fmt_duration
+from swim_jax.run.progress import Clock, chunks_left, progress_line
 from swim_jax.io.replay_store import DIRNAME as REPLAY_DIR
 from swim_jax.io.replay_store import ReplayStore
 from swim_jax.run.programs import Lanes, Programs, auto_host_devices, backends_started, lanes as program_lanes, matmul_dtype, physics_backend, placement, programs, stepper as program_stepper, use_compilation_cache, with_physics_backend
@@ -146,7 +148,7 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
     """The training loop: build the program, start (from the newest checkpoint when resuming),
     then per chunk of ``eval_freq`` steps: train, stop on NaN/inf, evaluate, log, checkpoint,
     write the evaluations and ``log`` a progress line; finally the final policy and timing."""
-    clock = _Clock(time.time())
+    clock = Clock(time.time())
     say(f"building {cfg.env.id} ({cfg.env.backend} physics: {physics_why}; {cfg.precision}) and the "
         f"{cfg.agent.kind.upper()} program for "
         f"{LaneLayout.of(cfg).count} lanes; {matmul_dtype(cfg)[1]}")
@@ -211,9 +213,9 @@ def _run(cfg: Config, run_dir: str, resume: bool, log: Callable[[str], None],
         _save(ckpt, store, step, cfg.eval_freq, states, evals)
         folder.evaluations(evals.returns, c + 2)
         clock.iteration_done(time.time() - t0, learning=step > cfg.learning_starts, first=c == start)
-        log(_progress_line(cfg, layout, step, evals.returns[c + 1, : layout.real], dt, c == start,
-                           clock.elapsed(), clock.eta(*_chunks_left(cfg, c + 1)), metrics,
-                           prog.agent.matmul_dtype is not None))
+        log(progress_line(cfg, layout, step, evals.returns[c + 1, : layout.real], dt, c == start,
+                          clock.elapsed(), clock.eta(*chunks_left(cfg, c + 1)), metrics,
+                          prog.agent.matmul_dtype is not None))
     final_actor = outputs.flat_params(jax.tree.map(lambda x: x[: layout.real], to_host(states.agent.actor)))
     folder.final_policy(final_actor)
     timing = _timing(cfg, prog, lanes, evals, clock, start if resume else None, stepper)
@@ -311,72 +313,7 @@ class _Evaluations:
         return self.returns.astype(self._dtype)
 
 
-@dataclass
-class _Clock:
-    """Wall-clock accounting of a run: the first chunk (with its compilation) apart from the others,
-    whose env steps give the throughput, and whole chunk iterations per phase (random warm-up,
-    learning) for the ETA."""
-
-    start: float
-    train_s: float = 0.0  # chunks after the first
-    steps_timed: int = 0  # their env steps per lane
-    first_chunk_s: float | None = None
-    walls: dict = field(default_factory=lambda: {False: [], True: []})  # iterations by phase (learning?)
-    first_wall: dict = field(default_factory=dict)  # phase -> the run's first iteration (with its compile)
-
-    def trained(self, dt: float, steps: int) -> float:
-        if self.first_chunk_s is None:
-            self.first_chunk_s = dt  # includes compilation
-        else:
-            self.train_s += dt
-            self.steps_timed += steps
-        return dt
-
-    def iteration_done(self, wall: float, learning: bool, first: bool = False) -> None:
-        """One chunk iteration (train + evaluation + checkpoint) of ``wall`` seconds in the
-        learning phase or the warm-up; the run's ``first`` (its compilation inside) is kept apart."""
-        if first:
-            self.first_wall[learning] = wall
-        else:
-            self.walls[learning].append(wall)
-
-    def elapsed(self) -> float:
-        return time.time() - self.start
-
-    def eta(self, warmup_left: int, learning_left: int) -> ETA:
-        """Seconds for the chunks left: each phase's at its recent iterations' mean (the learning
-        phase is several times slower per step than the warm-up); a lower bound (``ETA.known``
-        false) while learning chunks are left and none was timed yet."""
-        def typical(learning: bool) -> float | None:
-            w = self.walls[learning]
-            return float(np.mean(w[-3:])) if w else self.first_wall.get(learning)
-
-        warm, learn = typical(False), typical(True)
-        known = learn is not None or learning_left == 0
-        seconds = warmup_left * (warm or 0.0) + learning_left * (learn if learn is not None else (warm or 0.0))
-        return ETA(seconds, known)
-
-
-@dataclass(frozen=True)
-class ETA:
-    """Seconds left; ``known`` false: a lower bound (the learning phase is not timed yet)."""
-
-    seconds: float
-    known: bool = True
-
-    def __str__(self) -> str:
-        return _fmt_time(self.seconds) if self.known else f">{_fmt_time(self.seconds)} (learning phase not timed yet)"
-
-
-def _chunks_left(cfg: Config, done: int) -> tuple[int, int]:
-    """(warm-up chunks, learning chunks) after the first ``done`` chunks; a chunk is learning when
-    any of its steps is (its end step > ``learning_starts``)."""
-    n = cfgmod.schedule(cfg).n_chunks
-    warm = min(n, cfg.learning_starts // cfg.eval_freq)
-    return max(0, warm - done), n - max(done, warm)
-
-
-def _timing(cfg: Config, prog: Programs, lanes: Lanes, evals: _Evaluations, clock: _Clock,
+def _timing(cfg: Config, prog: Programs, lanes: Lanes, evals: _Evaluations, clock: Clock,
             resumed_from_chunk: int | None, stepper) -> dict:
     """``timing.json``: wall time, throughput (aggregate and per lane), compile counts
     (``chunk_compiles``: the stepper's executables; lane groups make all of theirs before the first
@@ -473,27 +410,6 @@ def train_chunk(cfg: Config, stepper, parts, c: int, say, beat: Heartbeat | None
 def _merge_pieces(pieces: list):
     """The metrics of one call made of consecutive ``pieces`` (host ``ChunkMetrics`` of the agent)."""
     return type(pieces[0])(**learning_log.combine(pieces))
-
-
-def _progress_line(cfg: Config, layout: LaneLayout, step: int, ev: np.ndarray, dt: float, first: bool,
-                   elapsed: float, eta: ETA | float, chunk_metrics: dict | None = None, bf16: bool = False) -> str:
-    """One line per chunk: step, throughput (", bf16 matmuls" when ``bf16``), eval mean ± std over
-    seeds (per point for sweeps), and, once updates run, the chunk's critic loss and Q₁ averaged
-    over the lanes."""
-    S, P, points = layout.seeds, len(layout.points), layout.points
-    means = ev.mean(axis=1)  # [P·S] each lane's mean episode return
-    rate = cfg.eval_freq * P * S / dt
-    unit = "lane" if layout.swept else "seed"
-    over = f"{P} points × {counted(S, 'seed')}" if layout.swept else counted(S, "seed")
-    line = (f"step {step:>8d}/{cfg.total_steps} | {rate:8.0f} env-steps/s ({rate / (P * S):.0f}/{unit}"
-            f"{', incl. compile' if first else ''}{', bf16 matmuls' if bf16 else ''}) | eval {means.mean():9.2f} ± {means.std():7.2f} over {over}")
-    if layout.swept and P <= 8:
-        point_means = layout.point_means(means)
-        line += " [" + ", ".join(f"{cfgmod.point_label(pt)}: {m:.0f}" for pt, m in zip(points, point_means)) + "]"
-    if chunk_metrics is not None and np.any(chunk_metrics["updates"][: P * S] > 0):
-        line += (f" | critic loss {np.nanmean(chunk_metrics['critic_loss'][: P * S]):.3g}"
-                 f", Q {np.nanmean(chunk_metrics['q_mean'][: P * S]):.3g}")
-    return line + f" | elapsed {_fmt_time(elapsed)} | ETA {eta if isinstance(eta, ETA) else _fmt_time(eta)}"
 
 
 _fmt_time = fmt_duration  # h:mm:ss, "?" when not finite (swim_jax/run/heartbeat.py)
