@@ -48,6 +48,11 @@ WORDING_SINCE_8B1B18B = {
     "**Fewer steps than the paper** for Hopper-v5: returns are not comparable with the paper's in absolute "
     "terms.\n\n**Fewer seeds than the paper's 5** for Hopper-v5: the max of the mean over fewer seeds is "
     "noisier (and lies higher on average), and the verdicts below need 5 seeds a side.\n",
+    # 2026-12-07: the paper's columns differ in the env version always; budget and precision per env
+    "(gym -v2 envs, 1M steps, 5 seeds, float64): **a different env version and budget**, shown for "
+    "orientation only.\n":
+    "(gym -v2 envs, 1M steps, 5 seeds, float64): **another env version** (the Budget section says where "
+    "steps, seeds and precision differ too), shown for orientation only.\n",
 }
 
 

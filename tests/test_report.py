@@ -79,10 +79,10 @@ def test_table2_values_by_hand(tmp_path, walker, capsys):
     md = (out / "REPORT.md").read_text()
     assert "| Swim | 2 | 50.00 ± 10.00 | 100 | 45.00 ± 5.00 | 37.50 ± 2.50 |" in md
     assert "| Swish | 2 | 35.00 ± 5.00 | 200 | 35.00 ± 5.00 | 21.25 ± 3.75 |" in md
-    # side by side with the paper's Walker2d-v2 row, labelled as a different env version and budget
+    # side by side with the paper's Walker2d-v2 row, labelled as another env version (budget and precision: the Budget section)
     assert ("| Walker2d-v5 | 35.0 ± 5.0 | 50.0 ± 10.0 | +42.9% | +28.6% | +76.5% | Walker2d-v2 (1M steps, 5 seeds) "
             "| 3774.7 ± 149.8 | 4387.4 ± 453.5 | 16% |") in md
-    assert "different env version and budget" in md
+    assert "**another env version** (the Budget section says where steps, seeds and precision differ too)" in md
     assert "standard deviation over seeds at that same evaluation" in md
     assert "1,000,000 steps per run" in md and "| Walker2d-v5 | 200 | 100 | 5 | Swim 2, Swish 2 | float32 |" in md
     assert "Evidence too weak" in md and "at least 5 each are needed" in md  # 2 seeds

@@ -131,8 +131,8 @@ def _paper_comparison_section(t2: dict, imp: dict) -> list[str]:
     """Swim's improvement over Swish per env, next to the paper's Table II row for that env."""
     L = ["### Swim vs Swish, next to the paper", "",
          "Improvement = (Swim − Swish) / |Swish| of the means. The paper's columns are its Table II "
-         "(gym -v2 envs, 1M steps, 5 seeds, float64): **a different env version and budget**, shown "
-         "for orientation only.", ""]
+         "(gym -v2 envs, 1M steps, 5 seeds, float64): **another env version** (the Budget section "
+         "says where steps, seeds and precision differ too), shown for orientation only.", ""]
     rows = []
     for env, r in t2.items():
         if "swim" not in r or "swish" not in r:
