@@ -84,6 +84,20 @@ def test_command_on_a_curated_cell(capsys, tmp_path):
     assert row["published"]["mean"] == raw[275_000] and "Walker2d-v5 | td3 | relu | 300,000" in capsys.readouterr().out
 
 
+def test_several_steps_give_one_row_per_run_and_step_each_the_single_steps_row(tmp_path, capsys):
+    """``--at-step 100000,300000``: the rows of ``--at-step 100000`` and ``--at-step 300000``, in
+    that order, in one table and one JSON list."""
+    rows = []
+    for steps in ("100000", "300000", "100000,300000"):
+        out = tmp_path / f"{steps}.json"
+        assert published.main([WALKER_RELU, "--at-step", steps, "--json", str(out)]) == 0
+        rows.append(json.load(open(out)))
+    assert rows[2] == rows[0] + rows[1] and [r["step"] for r in rows[2]] == [100_000, 300_000]
+    out = capsys.readouterr().out
+    assert out.count("| Walker2d-v5 | td3 | relu |") == 4  # 1 + 1 + 2
+    assert out.count(f"- {WALKER_RELU} at 100,000: ") == 2 and out.count(f"- {WALKER_RELU} at 300,000: ") == 2
+
+
 def _exit_status(argv) -> int:
     """``published.main``'s status, argparse's refusals (SystemExit) included."""
     try:
@@ -93,8 +107,11 @@ def _exit_status(argv) -> int:
 
 
 @pytest.mark.parametrize("argv,fragment", [
-    ([WALKER_RELU, "--at-step", "12345"], "multiple of 5000"),
+    ([WALKER_RELU, "--at-step", "12345"], "multiples of 5000"),
     ([WALKER_RELU, "--at-step", "400000"], "400000"),
+    ([WALKER_RELU, "--at-step", "100000,12345"], "got 12345"),
+    ([WALKER_RELU, "--at-step", "100000,100000"], "named twice"),
+    ([WALKER_RELU, "--at-step", "3e5"], "comma-separated steps"),
     ([os.path.join(REPO, "runs", "no-such-run")], "no-such-run"),
 ])
 def test_bad_input_is_one_line_and_exit_2(argv, fragment, capsys):

@@ -1,5 +1,5 @@
 """Our runs next to published curves at the same step: ``python -m swim_jax.published RUN_DIR ...
-[--at-step N]`` (docs/PUBLISHED.md says where each figure comes from and how it was measured).
+[--at-step N[,N2,...]]`` (docs/PUBLISHED.md says where each figure comes from and how it was measured).
 
 The curves and how their steps line up with ours: swim_jax/analysis/published_curves.py.
 
@@ -7,15 +7,16 @@ For every run (a sweep folder stands for its points): our seeds' evaluations at 
 std, n), the published mean at N with its sample std (population std · √(n/(n−1))), the difference
 ours − published with Welch's 95 % CI and two-sided p from those summary statistics
 (:func:`swim_jax.analysis.stats.welch_from_stats`), and the published mean over N ± 50k (the single
-points are noisy). N defaults to each run's last evaluation. A run whose env or algorithm has no
-published curve, or a step it has not reached or the curve lacks: one line, exit 2.
+points are noisy). N defaults to each run's last evaluation; several steps (``--at-step
+300000,500000,1000000``) give one row per run and step, in that order, in one table. A run whose env
+or algorithm has no published curve, or a step it has not reached or the curve lacks: one line, exit 2.
 
 ``--pool`` pools run folders of one (env, activation) as more seeds, as the report does
 (``swim_jax.analysis.runs_io``'s grouping policy: the same config but for the seeds, no seed twice,
 one numerics per env), e.g. seeds 0–4 and 5–9 of one cell as one row of 10 seeds.
 
 ``--figure FILE`` (.png or .svg) also draws the runs' learning curves over the published curves up
-to N (swim_jax/analysis/published_figure.py).
+to N (the largest N given; swim_jax/analysis/published_figure.py).
 """
 
 from __future__ import annotations
@@ -89,7 +90,7 @@ def render(rows: list[dict]) -> str:
                  f"{r['ours_mean']:.1f} ± {r['ours_sd']:.1f} (n {r['ours_n']}) | {p['mean']:.1f} ± {p['sd']:.1f} "
                  f"(n {p['n']}, {p['env']}) | {p['window_mean']:.1f} | {r['diff']:+.1f} [{r['diff_ci'][0]:+.1f}, "
                  f"{r['diff_ci'][1]:+.1f}] ({stats.fmt_p(r['welch_p'])}) |")
-    L += [""] + [f"- {r['run']}: {sentence(r)}." for r in rows]
+    L += [""] + [f"- {r['run']} at {r['step']:,}: {sentence(r)}." for r in rows]
     return "\n".join(L)
 
 
@@ -97,8 +98,9 @@ def parse_args(argv):
     p = cli_parser.ArgumentParser(prog="python -m swim_jax.published", description=__doc__.split("\n")[0],
                                   formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("runs", nargs="+", metavar="RUN_DIR", help="run folders (a sweep folder stands for its points)")
-    p.add_argument("--at-step", type=int, default=None, metavar="N",
-                   help="compare at step N (a multiple of 5000; default: each run's last evaluation)")
+    p.add_argument("--at-step", type=_steps, default=None, metavar="N[,N2,...]",
+                   help="compare at step N, or at each of several steps (multiples of 5000; default: each "
+                        "run's last evaluation)")
     p.add_argument("--json", default=None, metavar="FILE", help="also write the rows as JSON to FILE (must not exist)")
     p.add_argument("--pool", action="store_true",
                    help="pool run folders of one (env, activation) as more seeds, as the report does")
@@ -111,8 +113,9 @@ def parse_args(argv):
         problem = cli_parser.output_file_problem("--figure", a.figure)
         if problem:
             p.error(problem)
-    if a.at_step is not None and (a.at_step < 0 or a.at_step % 5000):
-        p.error(f"--at-step must be a non-negative multiple of 5000 (the published curves' spacing), got {a.at_step}")
+    bad = [n for n in a.at_step or () if n < 0 or n % 5000]
+    if bad:
+        p.error(f"--at-step takes non-negative multiples of 5000 (the published curves' spacing), got {bad[0]}")
     if a.json is not None:
         problem = cli_parser.output_file_problem("--json", a.json)
         if problem:
@@ -120,14 +123,26 @@ def parse_args(argv):
     return a
 
 
+def _steps(text: str) -> list[int]:
+    """``--at-step``'s value: one step or several, comma-separated, each once."""
+    try:
+        steps = [int(t) for t in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a step or comma-separated steps, got {text!r}") from None
+    if len(set(steps)) != len(steps):
+        raise argparse.ArgumentTypeError(f"a step is named twice in {text!r}")
+    return steps
+
+
 def main(argv=None) -> int:
     """CLI entry point; returns the exit status (0 printed, 2 bad input with one line on stderr)."""
     args = parse_args(sys.argv[1:] if argv is None else list(argv))
     try:
-        runs = runs_io.load_runs(args.runs, args.at_step)
+        last = max(args.at_step) if args.at_step else None
+        runs = runs_io.load_runs(args.runs, last)
         if args.pool:
             runs = pooled(runs)
-        rows = [compare(r, args.at_step) for r in runs]
+        rows = [compare(r, step) for r in runs for step in (args.at_step or [None])]
     except (PublishedError, runs_io.RunError) as e:
         print(f"published: error: {e}", file=sys.stderr)
         return 2
@@ -139,6 +154,6 @@ def main(argv=None) -> int:
     if args.figure:
         from swim_jax.analysis import published_figure  # matplotlib only when asked
 
-        published_figure.figure(runs, [args.figure], up_to=args.at_step)
+        published_figure.figure(runs, [args.figure], up_to=last)
         print(f"published: wrote {args.figure}")
     return 0
