@@ -133,7 +133,8 @@ def test_figure_draws_each_run_over_its_published_curve(tmp_path, capsys):
     sac = os.path.join(REPO, "runs", "curated", "sac-check", "hopper_relu")
     out = tmp_path / "curves.svg"
     assert published.main([WALKER_RELU, sac, "--at-step", "100000", "--figure", str(out)]) == 0
-    assert capsys.readouterr().out.endswith(f"published: wrote {out}\n")
+    printed = capsys.readouterr()
+    assert printed.err == f"published: wrote {out}\n" and "published: wrote" not in printed.out
     svg = out.read_text()
     for text in ("study-table2/walker_relu: Walker2d-v5 relu, float32, bfloat16 products, 5 seeds",
                  "sac-check/hopper_relu: Hopper-v5 relu, float32, 3 seeds",

@@ -135,7 +135,9 @@ def _steps(text: str) -> list[int]:
 
 
 def main(argv=None) -> int:
-    """CLI entry point; returns the exit status (0 printed, 2 bad input with one line on stderr)."""
+    """CLI entry point; returns the exit status (0 printed, 2 bad input with one line on stderr).
+
+    stdout carries the table only (so `> PUBLISHED.md` is the table); notes go to stderr."""
     args = parse_args(sys.argv[1:] if argv is None else list(argv))
     try:
         last = max(args.at_step) if args.at_step else None
@@ -155,5 +157,5 @@ def main(argv=None) -> int:
         from swim_jax.analysis import published_figure  # matplotlib only when asked
 
         published_figure.figure(runs, [args.figure], up_to=last)
-        print(f"published: wrote {args.figure}")
+        print(f"published: wrote {args.figure}", file=sys.stderr)  # stdout is the table
     return 0
