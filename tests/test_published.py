@@ -98,6 +98,24 @@ def test_several_steps_give_one_row_per_run_and_step_each_the_single_steps_row(t
     assert out.count(f"- {WALKER_RELU} at 100,000: ") == 2 and out.count(f"- {WALKER_RELU} at 300,000: ") == 2
 
 
+def test_reach_gives_the_first_step_at_each_return_on_both_sides(tmp_path, capsys):
+    """``--reach``: the first evaluation at which the seeds' mean is ≥ R, against the first point of
+    Tianshou's raw mean curve (its env_step + 25k) ≥ R, both up to the run's last step (300k here)."""
+    out = tmp_path / "reach.json"
+    assert published.main([WALKER_RELU, "--reach", "500,1000,99999", "--json", str(out)]) == 0
+    rows = json.load(open(out))
+    mean = np.load(os.path.join(WALKER_RELU, "evaluations.npy")).mean(axis=1)  # [evaluations]
+    raw = [(p[0] + 25_000, p[1]) for p in json.load(open(published_curves.DATA))["envs"]["Walker2d-v3"]["TD3"]
+           if p[0] + 25_000 <= 300_000]
+    for row, level in zip(rows, (500, 1000)):
+        ours = 5000 * next(i for i, m in enumerate(mean) if m >= level)
+        theirs = next(s for s, m in raw if m >= level)
+        assert (row["return"], row["ours_step"], row["published_step"]) == (level, ours, theirs)
+        assert row["later_by"] == ours - theirs and row["ours_n"] == 5
+    assert (rows[2]["ours_step"], rows[2]["published_step"], rows[2]["later_by"]) == (None, None, None)
+    assert "| 99999 | not by 300,000 (n 5) | not by 300,000 | n/a |" in capsys.readouterr().out
+
+
 def _exit_status(argv) -> int:
     """``published.main``'s status, argparse's refusals (SystemExit) included."""
     try:
@@ -112,6 +130,9 @@ def _exit_status(argv) -> int:
     ([WALKER_RELU, "--at-step", "100000,12345"], "got 12345"),
     ([WALKER_RELU, "--at-step", "100000,100000"], "named twice"),
     ([WALKER_RELU, "--at-step", "3e5"], "comma-separated steps"),
+    ([WALKER_RELU, "--reach", "1000,lots"], "comma-separated returns"),
+    ([WALKER_RELU, "--reach", "nan"], "finite returns"),
+    ([WALKER_RELU, "--reach", "1000", "--at-step", "300000"], "give one of them"),
     ([os.path.join(REPO, "runs", "no-such-run")], "no-such-run"),
 ])
 def test_bad_input_is_one_line_and_exit_2(argv, fragment, capsys):

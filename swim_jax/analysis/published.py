@@ -15,6 +15,11 @@ or algorithm has no published curve, or a step it has not reached or the curve l
 (``swim_jax.analysis.runs_io``'s grouping policy: the same config but for the seeds, no seed twice,
 one numerics per env), e.g. seeds 0–4 and 5–9 of one cell as one row of 10 seeds.
 
+``--reach R[,R2,...]`` gives another table instead: for each run and return R, the first env step at
+which the mean over its seeds is ≥ R and the first at which the published mean curve is, up to the
+run's last evaluation (so both sides had the same steps), and how much later ours gets there: when a
+run learns, not only where it ends (e.g. Walker2d-v5 ReLU reaches 1000 90k steps after Tianshou's).
+
 ``--figure FILE`` (.png or .svg) also draws the runs' learning curves over the published curves up
 to N (the largest N given; swim_jax/analysis/published_figure.py).
 """
@@ -29,7 +34,7 @@ import sys
 import numpy as np
 
 from swim_jax.analysis import runs_io, stats
-from swim_jax.analysis.published_curves import SOURCE, WARMUP_STEPS, PublishedError, anchor
+from swim_jax.analysis.published_curves import SOURCE, WARMUP_STEPS, PublishedError, anchor, curve_points
 from swim_jax.io import cli_parser
 
 
@@ -52,6 +57,25 @@ def compare(run: runs_io.Run, step: int | None = None) -> dict:
     return {"run": run.path, "env": run.env, "algorithm": run.algorithm, "activation": run.activation,
             "step": step, "ours_mean": float(x.mean()), "ours_sd": float(x.std(ddof=1)), "ours_n": int(x.size),
             "published": ref.__dict__, "diff": w.diff, "diff_ci": [w.low, w.high], "welch_p": w.test.p_two_sided}
+
+
+def first_reach(steps, curve, level: float) -> int | None:
+    """The first of ``steps`` at which ``curve`` is ≥ ``level`` (None when it never is)."""
+    hit = np.flatnonzero(np.asarray(curve) >= level)
+    return int(steps[hit[0]]) if hit.size else None
+
+
+def reach(run: runs_io.Run, level: float) -> dict:
+    """One row: the first env step at which the run's mean return over its seeds is ≥ ``level``, the
+    first at which the published mean curve is (its points up to the run's last evaluation), and
+    ``later_by`` = ours − published in env steps (None where either side never gets there)."""
+    last = int(run.steps[-1])
+    points = [p for p in curve_points(run.env, run.algorithm) if p[0] <= last]
+    ours = first_reach(run.steps, run.returns.mean(axis=1), level)
+    theirs = first_reach([p[0] for p in points], [p[1] for p in points], level)
+    return {"run": run.path, "env": run.env, "algorithm": run.algorithm, "activation": run.activation,
+            "return": level, "ours_n": int(run.returns.shape[1]), "up_to": last, "ours_step": ours,
+            "published_step": theirs, "later_by": None if ours is None or theirs is None else ours - theirs}
 
 
 def pooled(runs: list[runs_io.Run]) -> list[runs_io.Run]:
@@ -94,6 +118,22 @@ def render(rows: list[dict]) -> str:
     return "\n".join(L)
 
 
+def render_reach(rows: list[dict]) -> str:
+    """The ``--reach`` rows as a markdown table."""
+    def at(step, row):
+        return f"{step:,}" if step is not None else f"not by {row['up_to']:,}"
+
+    L = [f"The first env step at which the mean return over seeds reaches each level: ours, and the published "
+         f"mean curve of {SOURCE} (its env_step + its random warm-up), both up to the run's last evaluation:", "",
+         "| run | env | algorithm | activation | return | ours reaches it at | published reaches it at | "
+         "ours later by |", "|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        later = f"{r['later_by']:+,}" if r["later_by"] is not None else "n/a"
+        L.append(f"| {r['run']} | {r['env']} | {r['algorithm']} | {r['activation']} | {r['return']:g} | "
+                 f"{at(r['ours_step'], r)} (n {r['ours_n']}) | {at(r['published_step'], r)} | {later} |")
+    return "\n".join(L)
+
+
 def parse_args(argv):
     p = cli_parser.ArgumentParser(prog="python -m swim_jax.published", description=__doc__.split("\n")[0],
                                   formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -101,6 +141,8 @@ def parse_args(argv):
     p.add_argument("--at-step", type=_steps, default=None, metavar="N[,N2,...]",
                    help="compare at step N, or at each of several steps (multiples of 5000; default: each "
                         "run's last evaluation)")
+    p.add_argument("--reach", type=_levels, default=None, metavar="R[,R2,...]",
+                   help="instead: the first step at which ours and the published mean curve reach each return")
     p.add_argument("--json", default=None, metavar="FILE", help="also write the rows as JSON to FILE (must not exist)")
     p.add_argument("--pool", action="store_true",
                    help="pool run folders of one (env, activation) as more seeds, as the report does")
@@ -113,6 +155,8 @@ def parse_args(argv):
         problem = cli_parser.output_file_problem("--figure", a.figure)
         if problem:
             p.error(problem)
+    if a.reach is not None and a.at_step is not None:
+        p.error("--reach and --at-step give two different tables: give one of them")
     bad = [n for n in a.at_step or () if n < 0 or n % 5000]
     if bad:
         p.error(f"--at-step takes non-negative multiples of 5000 (the published curves' spacing), got {bad[0]}")
@@ -134,6 +178,16 @@ def _steps(text: str) -> list[int]:
     return steps
 
 
+def _levels(text: str) -> list[float]:
+    try:
+        levels = [float(t) for t in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a return or comma-separated returns, got {text!r}") from None
+    if not all(np.isfinite(levels)):
+        raise argparse.ArgumentTypeError(f"expected finite returns, got {text!r}")
+    return levels
+
+
 def main(argv=None) -> int:
     """CLI entry point; returns the exit status (0 printed, 2 bad input with one line on stderr).
 
@@ -144,11 +198,14 @@ def main(argv=None) -> int:
         runs = runs_io.load_runs(args.runs, last)
         if args.pool:
             runs = pooled(runs)
-        rows = [compare(r, step) for r in runs for step in (args.at_step or [None])]
+        if args.reach:
+            rows = [reach(r, level) for r in runs for level in args.reach]
+        else:
+            rows = [compare(r, step) for r in runs for step in (args.at_step or [None])]
     except (PublishedError, runs_io.RunError) as e:
         print(f"published: error: {e}", file=sys.stderr)
         return 2
-    print(render(rows))
+    print(render_reach(rows) if args.reach else render(rows))
     if args.json:
         with open(args.json, "w") as f:
             json.dump(rows, f, indent=1)
