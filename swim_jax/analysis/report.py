@@ -40,7 +40,7 @@ import numpy as np
 import yaml
 
 from swim_jax.io import cli_parser, output_folder
-from swim_jax.analysis import aggregate, paper_ref, stats, tidy
+from swim_jax.analysis import aggregate, gymnasium_check, paper_ref, stats, tidy
 from swim_jax.io.bench_results import BenchError, load_bench
 from swim_jax.analysis.report_figure import figure4, group_colors, learning_figure, parameter_series, sweep_figure
 from swim_jax.analysis.aggregate_figure import profile_figure
@@ -110,6 +110,9 @@ def results_dict(nums: Numbers, score: str, n_boot: int, boot_seed: int) -> dict
         out["envs"][env]["learning_metrics"] = rows
     if nums.agg is not None:  # (absent with fewer than 2 envs: older reports stay byte for byte)
         out["aggregate"] = nums.agg.to_json()
+    if nums.gymnasium:  # (absent without gymnasium-evaluation.json files: older reports stay byte for byte)
+        out["gymnasium_check"] = {env: {a: {**row, **gymnasium_check.summary(row)} for a, row in by.items()}
+                                  for env, by in nums.gymnasium.items()}
     return out
 
 
@@ -218,13 +221,17 @@ def compute(args) -> Numbers:
     if len(by_numerics) > 1 and not args.mixed_precision:  # an aggregate across envs is one comparison too
         agg_refused = ("envs differ in precision or matmul_dtype (" + "; ".join(
             f"{n}: {', '.join(envs)}" for n, envs in by_numerics.items()) + "); --mixed-precision aggregates them, marked")
+    try:
+        checks = gymnasium_check.table(groups)
+    except RunError as e:
+        raise ReportError(str(e)) from None
     return Numbers(groups=groups, configs={env: _first_config(g) for env, g in groups.items()}, t2=t2,
                    imp=improvements(t2), comps=comparisons(groups, args.n_boot, args.boot_seed, args.baseline),
                    t3=table3(bench_rows), bench_meta=bench_meta, learning=learning_table(groups),
                    series=parameter_series(groups),
                    agg=None if agg_refused else aggregate.aggregate(per_env, args.score, reps=args.n_boot,
                                                                     seed=args.boot_seed),
-                   agg_refused=agg_refused if len(groups) > 1 else None, numerics=by_numerics)
+                   agg_refused=agg_refused if len(groups) > 1 else None, numerics=by_numerics, gymnasium=checks)
 
 
 def _first_config(g: EnvGroup) -> dict:

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 
-from swim_jax.analysis import aggregate, paper_ref, stats
+from swim_jax.analysis import aggregate, gymnasium_check, paper_ref, stats
 from swim_jax.activations import display_name
 from swim_jax.analysis.report_numbers import SCORE_WORDS, Numbers
 from swim_jax.analysis.runs_io import EnvGroup
@@ -44,6 +44,8 @@ def render_markdown(nums: Numbers, score: str, n_boot: int, boot_seed: int, comm
             L += _learning_section(nums.groups, nums.learning)
         L += _statistics_section(nums.comps, n_boot, boot_seed)
         L += _verdict_section(nums.comps, score, nums.groups)
+        if nums.gymnasium:
+            L += _gymnasium_section(nums.gymnasium)
     if nums.agg is not None:
         L += _aggregate_section(nums.agg, n_boot, boot_seed, nums.numerics)
     elif nums.agg_refused:
@@ -261,6 +263,26 @@ def _verdict_section(comps: dict, score: str, groups: dict[str, EnvGroup]) -> li
         else:
             L.append(f"- **{_marked(env, groups)}**: no verdict (needs both Swim and Swish runs).")
     return L + [""] if comps else L
+
+
+def _gymnasium_section(checks: dict) -> list[str]:
+    """The final policies played in Gymnasium's own env (swim_jax/analysis/gymnasium_check.py)."""
+    L = ["## Gymnasium check of the final policies", "",
+         "Each checked seed's final policy played in Gymnasium's own env (`python -m swim_jax.evaluate RUN "
+         "--json RUN/gymnasium-evaluation.json`), next to our own evaluation at that step; mean ± sample std "
+         "over the checked seeds. Gymnasium − ours is the mean over those seeds of each seed's difference.", "",
+         "| env | activation | step | seeds checked | ours | Gymnasium (episodes per seed) | Gymnasium − ours |",
+         "|---|---|---|---|---|---|---|"]
+    for env, by in checks.items():
+        for label, row in by.items():
+            s = gymnasium_check.summary(row)
+            episodes = ", ".join(str(n) for n in row["episodes"])
+            def pm(m, sd):
+                return f"{m:.1f}" if math.isnan(sd) else _pm(m, sd, 1)
+            L.append(f"| {env} | {_name(label)} | {row['step']:,} | {len(row['checked'])} of {row['seeds']} | "
+                     f"{pm(s['ours_mean'], s['ours_sd'])} | {pm(s['gymnasium_mean'], s['gymnasium_sd'])} "
+                     f"({episodes}) | {s['gymnasium_minus_ours']:+.1f} |")
+    return L + [""]
 
 
 def _table3_section(t3: list[dict], bench_meta: dict) -> list[str]:

@@ -146,6 +146,7 @@ class Numbers:
     agg: aggregate.Aggregates | None = None  # across envs (rliable's metrics); None with fewer than 2 envs
     agg_refused: str | None = None  # why the envs were not aggregated (their runs' numerics differ)
     numerics: dict = field(default_factory=dict)  # :func:`by_numerics_of` the groups: {numerics: [envs]}
+    gymnasium: dict = field(default_factory=dict)  # swim_jax.analysis.gymnasium_check.table of the groups
 
 
 def by_numerics_of(groups: dict[str, EnvGroup]) -> dict[str, list[str]]:
