@@ -80,6 +80,12 @@ def test_a_file_whose_record_of_our_return_is_not_the_runs_is_refused(tmp_path, 
     at_200k = np.load(os.path.join(run, "evaluations.npy"))[200_000 // 5000, 0]
     assert len(err.splitlines()) == 1 and gymnasium_check.FILE in err and f"is {at_200k:.2f}" in err
     assert not os.path.exists(tmp_path / "rep")
+    doc["rows"][0]["step"], doc["rows"][0]["seed"] = 300_000, 7  # a seed the run does not have
+    json.dump(doc, open(path, "w"))
+    assert report.main([run, "--out", str(tmp_path / "rep")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "has seed 7; the run's seeds are 0, 1, 2, 3, 4" in err
+    assert not os.path.exists(tmp_path / "rep")
 
 
 def test_no_file_no_section_and_a_broken_file_is_one_line_exit_2(tmp_path, capsys):

@@ -24,7 +24,8 @@ FILE = "gymnasium-evaluation.json"
 def read(run_path: str, step: int) -> dict[int, tuple[float, float, int]]:
     """``{seed: (ours, Gymnasium mean, Gymnasium episodes)}`` from ``run_path``'s :data:`FILE`: its rows
     at ``step``, played in the env the run trained in, with our recorded evaluation (files written before
-    ``--in-env`` and ``--ours-episodes`` existed have only such rows); ``{}`` without the file. :class:`RunError` (one line) when the file is not ``swim_jax.evaluate``'s JSON."""
+    ``--in-env`` and ``--ours-episodes`` existed have only such rows); ``{}`` without the file.
+    :class:`RunError` (one line) when the file is not ``swim_jax.evaluate``'s JSON."""
     path = os.path.join(run_path, FILE)
     if not os.path.exists(path):
         return {}

@@ -273,12 +273,13 @@ def _gymnasium_section(checks: dict) -> list[str]:
          "over the checked seeds. Gymnasium − ours is the mean over those seeds of each seed's difference.", "",
          "| env | activation | step | seeds checked | ours | Gymnasium (episodes per seed) | Gymnasium − ours |",
          "|---|---|---|---|---|---|---|"]
+    def pm(m, sd):  # one checked seed has no std
+        return f"{m:.1f}" if math.isnan(sd) else _pm(m, sd, 1)
+
     for env, by in checks.items():
         for label, row in by.items():
             s = gymnasium_check.summary(row)
             episodes = ", ".join(str(n) for n in row["episodes"])
-            def pm(m, sd):
-                return f"{m:.1f}" if math.isnan(sd) else _pm(m, sd, 1)
             L.append(f"| {env} | {_name(label)} | {row['step']:,} | {len(row['checked'])} of {row['seeds']} | "
                      f"{pm(s['ours_mean'], s['ours_sd'])} | {pm(s['gymnasium_mean'], s['gymnasium_sd'])} "
                      f"({episodes}) | {s['gymnasium_minus_ours']:+.1f} |")
