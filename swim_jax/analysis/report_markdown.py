@@ -8,7 +8,7 @@ import math
 
 from swim_jax.analysis import aggregate, gymnasium_check, paper_ref, stats
 from swim_jax.activations import display_name
-from swim_jax.analysis.report_numbers import SCORE_WORDS, Numbers
+from swim_jax.analysis.report_numbers import SCORE_WORDS, Numbers, verdict_power
 from swim_jax.analysis.runs_io import EnvGroup
 
 def _pm(m: float, s: float, nd: int = 2) -> str:
@@ -259,10 +259,31 @@ def _verdict_section(comps: dict, score: str, groups: dict[str, EnvGroup]) -> li
          "the difference that excludes 0.", ""]
     for env, per in comps.items():
         if "swim_vs_swish" in per:
-            L.append(f"- **{_marked(env, groups)}**: {stats.verdict(per['swim_vs_swish'][score])}")
+            c = per["swim_vs_swish"][score]
+            L.append(f"- **{_marked(env, groups)}**: {stats.verdict(c)}")
+            if not stats.sufficient(c):
+                L += _power_line(env, c)
         else:
             L.append(f"- **{_marked(env, groups)}**: no verdict (needs both Swim and Swish runs).")
     return L + [""] if comps else L
+
+
+def _power_line(env: str, c: stats.Comparison) -> list[str]:
+    """Under a verdict that found too little: how large a difference these seeds could have found
+    (report_numbers.verdict_power), and how many seeds the paper's improvement would need."""
+    pw = verdict_power(env, c)
+    if pw is None:
+        return []
+    pct = pw["detectable_pct_of_swish"]
+    line = (f"  - Power: at these seeds' spread (sample std Swim {c.sd_x:.1f}, Swish {c.sd_y:.1f}; "
+            f"{c.n_x} and {c.n_y} seeds), Welch's test at p < {pw['alpha']} finds a true difference of "
+            f"{pw['detectable_difference']:.1f}" + (f" ({pct:.0f} % of Swish's mean)" if pct is not None else "")
+            + f" or more {pw['power']:.0%} of the time.")
+    if "paper_difference" in pw:
+        n = pw["seeds_for_paper_difference"]
+        line += (f" The paper's +{pw['paper_improvement_pct']} % ({pw['paper_env']}; {pw['paper_difference']:.1f} "
+                 f"on this score) would need " + (f"{n} seeds a side." if n is not None else "more than 1000 seeds a side."))
+    return [line]
 
 
 def _gymnasium_section(checks: dict) -> list[str]:

@@ -79,6 +79,31 @@ def comparisons(groups: dict[str, EnvGroup], n_boot: int, seed: int, baseline: s
     return out
 
 
+def verdict_power(env: str, c: stats.Comparison) -> dict | None:
+    """How large a Swim vs Swish difference the verdict's seeds could detect (``c``: the verdict's
+    :class:`stats.Comparison`); None with fewer than 2 seeds on a side.
+
+    ``{"power", "alpha", "detectable_difference"}``: the smallest true difference of mean per-seed
+    scores Welch's test at p < alpha detects with that power at these seeds' sample std
+    (:func:`stats.detectable_difference`), and ``"detectable_pct_of_swish"``: it as % of |Swish's
+    mean|. Where the paper has the env and a nonzero Table II improvement: ``"paper_improvement_pct"``,
+    ``"paper_difference"`` (that % of |Swish's mean| on this score) and ``"seeds_for_paper_difference"``
+    (:func:`stats.seeds_to_detect` at these std; None beyond 1000).
+    """
+    if min(c.n_x, c.n_y) < 2:
+        return None
+    d = stats.detectable_difference(c.sd_x, c.n_x, c.sd_y, c.n_y)
+    out = {"power": stats.POWER, "alpha": stats.ALPHA, "detectable_difference": d,
+           "detectable_pct_of_swish": 100.0 * d / abs(c.mean_y) if c.mean_y else None}
+    penv = paper_ref.paper_env(env)
+    pct = paper_ref.TABLE_II_IMPROVEMENT_PCT.get(penv) if penv else None
+    if pct:
+        diff = pct / 100.0 * abs(c.mean_y)
+        out.update(paper_env=penv, paper_improvement_pct=pct, paper_difference=diff,
+                   seeds_for_paper_difference=stats.seeds_to_detect(diff, c.sd_x, c.sd_y))
+    return out
+
+
 def learning_table(groups: dict[str, EnvGroup]) -> dict:
     """``{env: {label: row}}`` for the curve sets with learning metrics (metrics.csv) in at least one
     chunk; envs without any are left out. row = ``{"steps": [chunk end steps], "seeds": n,

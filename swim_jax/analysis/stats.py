@@ -363,6 +363,8 @@ class Comparison:
     iqm_y: float
     prob_improvement: float
     welch: WelchResult | None
+    sd_x: float = float("nan")  # sample std (ddof = 1) of the per-seed scores; nan with one seed
+    sd_y: float = float("nan")
 
 
 def compare(x, y, score: str, n_boot: int = 10_000, seed: int = 0) -> Comparison:
@@ -379,38 +381,98 @@ def compare(x, y, score: str, n_boot: int = 10_000, seed: int = 0) -> Comparison
         diff=float(x.mean() - y.mean()), diff_ci=bootstrap_diff_ci(x, y, n_boot, seed=seed + 2),
         ci_x=bootstrap_ci(x, n_boot, seed=seed), ci_y=bootstrap_ci(y, n_boot, seed=seed + 1),
         iqm_x=iqm(x), iqm_y=iqm(y), prob_improvement=prob_improvement(x, y), welch=welch,
+        sd_x=float(x.std(ddof=1)) if x.size >= 2 else float("nan"),
+        sd_y=float(y.std(ddof=1)) if y.size >= 2 else float("nan"),
     )
+
+
+POWER = 0.8
+
+
+def detectable_difference(sd_x: float, n_x: int, sd_y: float, n_y: int,
+                          power: float = POWER, alpha: float = ALPHA) -> float:
+    """The smallest true difference of means that Welch's two-sided test at level ``alpha`` detects
+    with probability ``power``, for samples of ``n_x``, ``n_y`` values whose standard deviations are
+    ``sd_x``, ``sd_y`` (sample std, ``ddof=1``; at least 2 values per sample, else ``ValueError``).
+
+    ``(t_{1−α/2, df} + t_{power, df}) · √(sd_x²/n_x + sd_y²/n_y)``, df the Welch–Satterthwaite degrees
+    of freedom: the usual t approximation of the noncentral t (the far tail neglected), within 0.01
+    of the exact power for df ≥ 4 (tests/test_stats_power.py checks it against scipy's noncentral t
+    and a simulation). Both std zero: 0.
+    """
+    if n_x < 2 or n_y < 2:
+        raise ValueError("a power calculation needs at least 2 values per sample")
+    if not 0.5 <= power < 1:
+        raise ValueError(f"power must be in [0.5, 1), got {power}")
+    ax, ay = sd_x ** 2 / n_x, sd_y ** 2 / n_y
+    if ax + ay == 0:
+        return 0.0
+    df = (ax + ay) ** 2 / (ax ** 2 / (n_x - 1) + ay ** 2 / (n_y - 1))
+    return (student_t_quantile(1 - alpha / 2, df) + student_t_quantile(power, df)) * math.sqrt(ax + ay)
+
+
+def seeds_to_detect(difference: float, sd_x: float, sd_y: float, power: float = POWER,
+                    alpha: float = ALPHA, most: int = 1000) -> int | None:
+    """The fewest seeds per side (the same on both) whose :func:`detectable_difference` at these
+    standard deviations is at most ``|difference|``; None if more than ``most`` would be needed or
+    ``difference`` is 0."""
+    if difference == 0:
+        return None
+    for n in range(2, most + 1):
+        if detectable_difference(sd_x, n, sd_y, n, power, alpha) <= abs(difference):
+            return n
+    return None
 
 
 def verdict(c: Comparison, x_name: str = "Swim", y_name: str = "Swish") -> str:
     """A plain-words conclusion for one comparison; says when the evidence is too weak.
 
     The evidence counts as sufficient only if both samples have at least ``MIN_SEEDS`` seeds, Welch's
-    p < ``ALPHA`` and the bootstrap 95% CI of the difference excludes 0 (all three).
+    p < ``ALPHA`` and the bootstrap 95% CI of the difference excludes 0 (all three; :func:`sufficient`).
     """
     if c.diff == 0:
         relation = f"equals {y_name}'s"
     else:
         relation = f"is {'higher' if c.diff > 0 else 'lower'} than {y_name}'s by {_fmt_num(abs(c.diff))}"
     lo, hi = c.diff_ci
-    p = c.welch.p_two_sided if c.welch is not None else float("nan")
-    spread = min(c.n_x, c.n_y) >= 2  # one seed on a side: the bootstrap CI is a single point, not an interval
-    ci = f"[{_fmt_num(lo)}, {_fmt_num(hi)}]" if spread else "n/a (one seed on a side)"
+    ci = f"[{_fmt_num(lo)}, {_fmt_num(hi)}]" if _spread(c) else "n/a (one seed on a side)"
     observed = (f"{x_name}'s mean per-seed {c.score} score {relation} "
-                f"(95% bootstrap CI of the difference {ci}, Welch p = {fmt_p(p)}, "
+                f"(95% bootstrap CI of the difference {ci}, Welch p = {fmt_p(_p(c))}, "
                 f"P({x_name} > {y_name}) = {c.prob_improvement:.2f})")
-    reasons = []
-    if min(c.n_x, c.n_y) < MIN_SEEDS:
-        reasons.append(f"{x_name} has {counted(c.n_x, 'seed')} and {y_name} {counted(c.n_y, 'seed')} "
-                       f"(at least {MIN_SEEDS} each are needed)")
-    if not (p < ALPHA):
-        reasons.append(f"p ≥ {ALPHA}" if math.isfinite(p) else "no t-test possible")
-    if spread and lo <= 0.0 <= hi:
-        reasons.append("the CI of the difference includes 0")
+    reasons = _too_weak_because(c, x_name, y_name)
     if reasons:
         return f"Evidence too weak to conclude: {observed}; " + ", ".join(reasons) + "."
     better = "better" if c.diff > 0 else "worse"
     return f"{x_name} is {better} than {y_name} on this budget: {observed}."
+
+
+def sufficient(c: Comparison) -> bool:
+    """Whether :func:`verdict` counts the evidence as sufficient (no reason to call it too weak)."""
+    return not _too_weak_because(c)
+
+
+def _p(c: Comparison) -> float:
+    return c.welch.p_two_sided if c.welch is not None else float("nan")
+
+
+def _spread(c: Comparison) -> bool:
+    """At least 2 seeds a side (with one, the bootstrap CI is a single point, not an interval)."""
+    return min(c.n_x, c.n_y) >= 2
+
+
+def _too_weak_because(c: Comparison, x_name: str = "Swim", y_name: str = "Swish") -> list[str]:
+    """Why the evidence is too weak (:func:`verdict`'s rule); empty when it is sufficient."""
+    reasons = []
+    if min(c.n_x, c.n_y) < MIN_SEEDS:
+        reasons.append(f"{x_name} has {counted(c.n_x, 'seed')} and {y_name} {counted(c.n_y, 'seed')} "
+                       f"(at least {MIN_SEEDS} each are needed)")
+    p = _p(c)
+    if not (p < ALPHA):
+        reasons.append(f"p ≥ {ALPHA}" if math.isfinite(p) else "no t-test possible")
+    lo, hi = c.diff_ci
+    if _spread(c) and lo <= 0.0 <= hi:
+        reasons.append("the CI of the difference includes 0")
+    return reasons
 
 
 def _fmt_num(v: float) -> str:
