@@ -51,10 +51,8 @@ class Pair:
     comparisons: dict  # score -> stats.Comparison (x = A, y = B)
 
     def changed(self) -> list[str]:
-        """The scores whose difference passes the evidence rule (stats.verdict's)."""
-        return [s for s, c in self.comparisons.items()
-                if min(c.n_x, c.n_y) >= stats.MIN_SEEDS and c.welch is not None
-                and c.welch.p_two_sided < stats.ALPHA and not c.diff_ci[0] <= 0.0 <= c.diff_ci[1]]
+        """The scores whose difference passes the evidence rule (stats.sufficient, the verdict's)."""
+        return [s for s, c in self.comparisons.items() if stats.sufficient(c)]
 
 
 def cells(folder: str) -> dict[str, str]:
