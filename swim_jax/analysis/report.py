@@ -46,7 +46,7 @@ from swim_jax.analysis.report_figure import figure4, group_colors, learning_figu
 from swim_jax.analysis.aggregate_figure import profile_figure
 from swim_jax.analysis.report_markdown import MIXED_MARK, render_markdown
 from swim_jax.analysis.report_numbers import (SCORES, Numbers, by_numerics_of, comparisons, improvements, learning_table,
-                                              table2, table3, verdict_power)
+                                              table2, table3, verdict_powers)
 from swim_jax.analysis.runs_io import EnvGroup, RunError, load_and_group
 
 OUTPUT_FILES = ("REPORT.md", "results.json", "results.csv", "figure4.png", "figure4.svg", "learning.png", "learning.svg",
@@ -101,7 +101,7 @@ def results_dict(nums: Numbers, score: str, n_boot: int, boot_seed: int) -> dict
                 "verdict": (stats.verdict(comps[env]["swim_vs_swish"][score])
                             if "swim_vs_swish" in comps[env] else None),
                 # (only with Swim and Swish, 2 seeds or more each: older reports stay byte for byte)
-                **({"verdict_power": power} if (power := _verdict_power(env, comps[env], score)) else {}),
+                **({"verdict_power": nums.power[env]} if env in nums.power else {}),
             }
             for env, g in nums.groups.items()
         },
@@ -116,11 +116,6 @@ def results_dict(nums: Numbers, score: str, n_boot: int, boot_seed: int) -> dict
         out["gymnasium_check"] = {env: {a: {**row, **gymnasium_check.summary(row)} for a, row in by.items()}
                                   for env, by in nums.gymnasium.items()}
     return out
-
-
-def _verdict_power(env: str, per: dict, score: str) -> dict | None:
-    """report_numbers.verdict_power of an env's Swim vs Swish comparison on the verdict's score."""
-    return verdict_power(env, per["swim_vs_swish"][score]) if "swim_vs_swish" in per else None
 
 
 def _json_safe(obj):
@@ -232,8 +227,9 @@ def compute(args) -> Numbers:
         checks = gymnasium_check.table(groups)
     except RunError as e:
         raise ReportError(str(e)) from None
+    comps = comparisons(groups, args.n_boot, args.boot_seed, args.baseline)
     return Numbers(groups=groups, configs={env: _first_config(g) for env, g in groups.items()}, t2=t2,
-                   imp=improvements(t2), comps=comparisons(groups, args.n_boot, args.boot_seed, args.baseline),
+                   imp=improvements(t2), comps=comps, power=verdict_powers(comps, args.score),
                    t3=table3(bench_rows), bench_meta=bench_meta, learning=learning_table(groups),
                    series=parameter_series(groups),
                    agg=None if agg_refused else aggregate.aggregate(per_env, args.score, reps=args.n_boot,

@@ -8,7 +8,7 @@ import math
 
 from swim_jax.analysis import aggregate, gymnasium_check, paper_ref, stats
 from swim_jax.activations import display_name
-from swim_jax.analysis.report_numbers import SCORE_WORDS, Numbers, verdict_power
+from swim_jax.analysis.report_numbers import SCORE_WORDS, Numbers
 from swim_jax.analysis.runs_io import EnvGroup
 
 def _pm(m: float, s: float, nd: int = 2) -> str:
@@ -43,7 +43,7 @@ def render_markdown(nums: Numbers, score: str, n_boot: int, boot_seed: int, comm
         if nums.learning:
             L += _learning_section(nums.groups, nums.learning)
         L += _statistics_section(nums.comps, n_boot, boot_seed)
-        L += _verdict_section(nums.comps, score, nums.groups)
+        L += _verdict_section(nums.comps, score, nums.groups, nums.power)
         if nums.gymnasium:
             L += _gymnasium_section(nums.gymnasium)
     if nums.agg is not None:
@@ -251,8 +251,9 @@ def _welch_cell(w) -> str:
     return f"{w.t:.2f} ({w.df:.1f})"
 
 
-def _verdict_section(comps: dict, score: str, groups: dict[str, EnvGroup]) -> list[str]:
-    """One verdict per env on Swim vs Swish, on the score fixed by ``--score``."""
+def _verdict_section(comps: dict, score: str, groups: dict[str, EnvGroup], power: dict) -> list[str]:
+    """One verdict per env on Swim vs Swish, on the score fixed by ``--score``; under a too-weak one,
+    its power line (``power``: report_numbers.verdict_powers)."""
     L = ["## Verdict: Swim vs Swish", "",
          f"On the per-seed **{score}** score ({SCORE_WORDS[score]}). The evidence counts as sufficient "
          f"only with ≥ {stats.MIN_SEEDS} seeds per activation, Welch p < {stats.ALPHA} and a 95% CI of "
@@ -261,19 +262,16 @@ def _verdict_section(comps: dict, score: str, groups: dict[str, EnvGroup]) -> li
         if "swim_vs_swish" in per:
             c = per["swim_vs_swish"][score]
             L.append(f"- **{_marked(env, groups)}**: {stats.verdict(c)}")
-            if not stats.sufficient(c):
-                L += _power_line(env, c)
+            if not stats.sufficient(c) and env in power:
+                L.append(_power_line(c, power[env]))
         else:
             L.append(f"- **{_marked(env, groups)}**: no verdict (needs both Swim and Swish runs).")
     return L + [""] if comps else L
 
 
-def _power_line(env: str, c: stats.Comparison) -> list[str]:
+def _power_line(c: stats.Comparison, pw: dict) -> str:
     """Under a verdict that found too little: how large a difference these seeds could have found
-    (report_numbers.verdict_power), and how many seeds the paper's improvement would need."""
-    pw = verdict_power(env, c)
-    if pw is None:
-        return []
+    (``pw``: report_numbers.verdict_power of ``c``), and how many seeds the paper's improvement would need."""
     pct = pw["detectable_pct_of_swish"]
     line = (f"  - Power: at these seeds' spread (sample std Swim {c.sd_x:.1f}, Swish {c.sd_y:.1f}; "
             f"{c.n_x} and {c.n_y} seeds), Welch's test at p < {pw['alpha']} finds a true difference of "
@@ -283,7 +281,7 @@ def _power_line(env: str, c: stats.Comparison) -> list[str]:
         n = pw["seeds_for_paper_difference"]
         line += (f" The paper's +{pw['paper_improvement_pct']} % ({pw['paper_env']}; {pw['paper_difference']:.1f} "
                  f"on this score) would need " + (f"{n} seeds a side." if n is not None else "more than 1000 seeds a side."))
-    return [line]
+    return line
 
 
 def _gymnasium_section(checks: dict) -> list[str]:

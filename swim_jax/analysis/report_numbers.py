@@ -104,6 +104,16 @@ def verdict_power(env: str, c: stats.Comparison) -> dict | None:
     return out
 
 
+def verdict_powers(comps: dict, score: str) -> dict:
+    """``{env: verdict_power}`` of each env's Swim vs Swish comparison on the verdict's ``score``
+    (envs without that comparison, or with one seed on a side, left out)."""
+    out = {}
+    for env, per in comps.items():
+        if "swim_vs_swish" in per and (pw := verdict_power(env, per["swim_vs_swish"][score])) is not None:
+            out[env] = pw
+    return out
+
+
 def learning_table(groups: dict[str, EnvGroup]) -> dict:
     """``{env: {label: row}}`` for the curve sets with learning metrics (metrics.csv) in at least one
     chunk; envs without any are left out. row = ``{"steps": [chunk end steps], "seeds": n,
@@ -172,6 +182,7 @@ class Numbers:
     agg_refused: str | None = None  # why the envs were not aggregated (their runs' numerics differ)
     numerics: dict = field(default_factory=dict)  # :func:`by_numerics_of` the groups: {numerics: [envs]}
     gymnasium: dict = field(default_factory=dict)  # swim_jax.analysis.gymnasium_check.table of the groups
+    power: dict = field(default_factory=dict)  # :func:`verdict_powers` of ``comps``
 
 
 def by_numerics_of(groups: dict[str, EnvGroup]) -> dict[str, list[str]]:

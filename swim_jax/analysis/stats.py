@@ -415,13 +415,18 @@ def seeds_to_detect(difference: float, sd_x: float, sd_y: float, power: float = 
                     alpha: float = ALPHA, most: int = 1000) -> int | None:
     """The fewest seeds per side (the same on both) whose :func:`detectable_difference` at these
     standard deviations is at most ``|difference|``; None if more than ``most`` would be needed or
-    ``difference`` is 0."""
-    if difference == 0:
+    ``difference`` is 0. By bisection: the detectable difference falls as n grows (a smaller standard
+    error, a larger df, smaller t quantiles)."""
+    def enough(n: int) -> bool:
+        return detectable_difference(sd_x, n, sd_y, n, power, alpha) <= abs(difference)
+
+    if difference == 0 or not enough(most):
         return None
-    for n in range(2, most + 1):
-        if detectable_difference(sd_x, n, sd_y, n, power, alpha) <= abs(difference):
-            return n
-    return None
+    lo, hi = 1, most  # not enough(lo) (n = 1 has no test), enough(hi)
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        lo, hi = (lo, mid) if enough(mid) else (mid, hi)
+    return hi
 
 
 def verdict(c: Comparison, x_name: str = "Swim", y_name: str = "Swish") -> str:
