@@ -1,0 +1,122 @@
+"""docs/CLAIMS.md quotes the curated float32 reports by hand; every figure it quotes must equal the
+report's results.json as the document rounds it. When a curated cell changes and its report is
+redrawn, this fails until CLAIMS.md is updated with it."""
+
+from __future__ import annotations
+
+import json
+import os
+
+import pytest
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+CLAIMS = os.path.join(REPO, "docs", "CLAIMS.md")
+REPORT_1M = os.path.join(REPO, "runs", "curated", "study-f32-walker-1m", "report", "results.json")
+REPORT_300K = os.path.join(REPO, "runs", "curated", "study-f32", "report-300k", "results.json")
+MINUS = "\u2212"
+
+
+def _signed(x: float, digits: int) -> str:
+    """``+196`` / ``−165`` as CLAIMS.md writes signed figures (Unicode minus)."""
+    s = f"{x:+.{digits}f}"
+    return s.replace("-", MINUS)
+
+
+def _comparison(c: dict, digits: int, ci: bool = True) -> str:
+    """``−165 [−818, +551], p 0.69``: a per-seed difference, its bootstrap CI and Welch's p."""
+    text = _signed(c["diff"], digits)
+    if ci:
+        lo, hi = c["diff_ci95"]
+        text += f" [{_signed(lo, digits)}, {_signed(hi, digits)}]"
+    return text
+
+
+def _p(c: dict) -> str:
+    return f"{c['welch']['p_two_sided']:.2f}"
+
+
+def _interval(v: list[float]) -> str:
+    return f"{v[0]:.3f} [{v[1]:.3f}, {v[2]:.3f}]"
+
+
+def _interval2(v: list[float]) -> str:
+    return f"{v[0]:.2f} [{v[1]:.2f}, {v[2]:.2f}]"
+
+
+@pytest.fixture(scope="module")
+def claims() -> str:
+    with open(CLAIMS, encoding="utf-8") as f:
+        return f.read()
+
+
+@pytest.fixture(scope="module")
+def reports() -> tuple[dict, dict]:
+    with open(REPORT_1M, encoding="utf-8") as f:
+        r1m = json.load(f)
+    with open(REPORT_300K, encoding="utf-8") as f:
+        r300 = json.load(f)
+    return r1m, r300
+
+
+def _walker_1m_quotes(r1m: dict) -> list[str]:
+    w = r1m["envs"]["Walker2d-v5"]
+    t, c, power = w["table2"], w["comparisons"], w["verdict_power"]
+    return [
+        f"Swim {t['swim']['max_mean']:.0f} ± {t['swim']['max_std']:.0f}, "
+        f"Swish {t['swish']['max_mean']:.0f} ± {t['swish']['max_std']:.0f}",
+        f"**{_signed(w['improvement_pct']['max'], 1)} %**",
+        f"per-seed max {_comparison(c['swim_vs_swish']['max'], 0)}, p {_p(c['swim_vs_swish']['max'])}",
+        f"({power['seeds_for_paper_difference']} a side for 80 %)",
+        f"{power['detectable_pct_of_swish']:.0f} % on Walker2d at 1M",
+        f"Walker2d at 1M {_signed(c['swim_vs_swish']['auc']['diff'], 0)} (p {_p(c['swim_vs_swish']['auc'])})",
+        f"Swim {_signed(c['swim_vs_relu']['max']['diff'], 0)} (p {_p(c['swim_vs_relu']['max'])}), "
+        f"Swish {_signed(c['swish_vs_relu']['max']['diff'], 0)} (p {_p(c['swish_vs_relu']['max'])}) over ReLU",
+    ]
+
+
+def _table2_300k_quotes(r300: dict) -> list[str]:
+    quotes = []
+    for env, name, digits in (("Hopper-v5", "Hopper", 0), ("HalfCheetah-v5", "HalfCheetah", 0),
+                              ("Swimmer-v5", "Swimmer", 1)):
+        e = r300["envs"][env]
+        m = e["comparisons"]["swim_vs_swish"]["max"]
+        quotes.append(f"{name}-v5 at 300k: {_signed(e['improvement_pct']['max'], 1)} %")
+        quotes.append(f"{_comparison(m, digits)}, p {_p(m)}")
+    auc = {env: r300["envs"][env]["comparisons"]["swim_vs_swish"]["auc"]
+           for env in ("Walker2d-v5", "Hopper-v5", "HalfCheetah-v5", "Swimmer-v5")}
+    quotes += [
+        f"at 300k Walker2d {_comparison(auc['Walker2d-v5'], 0, ci=False)} (p {_p(auc['Walker2d-v5'])})",
+        f"Hopper {_comparison(auc['Hopper-v5'], 0, ci=False)} (p {_p(auc['Hopper-v5'])})",
+        f"HalfCheetah {_comparison(auc['HalfCheetah-v5'], 0, ci=False)} (p {_p(auc['HalfCheetah-v5'])})",
+        f"Swimmer {_comparison(auc['Swimmer-v5'], 1)} (p {_p(auc['Swimmer-v5'])})",
+    ]
+    powers = {env: r300["envs"][env]["verdict_power"]["detectable_pct_of_swish"] for env in r300["envs"]}
+    low, high = min(powers, key=powers.get), max(powers, key=powers.get)
+    quotes.append(f"{powers[low]:.0f} % ({low.split('-')[0]}) to {powers[high]:.0f} % ({high.split('-')[0]})")
+    agg = r300["aggregate"]
+    iqm = {a: agg["metrics"][a]["iqm"] for a in ("swim", "swish", "relu")}
+    poi = agg["probability_of_improvement"]
+    quotes += [
+        f"IQM Swim {_interval(iqm['swim'])}, Swish {_interval(iqm['swish'])}",
+        f"IQM ReLU {_interval(iqm['relu'])}",
+        f"P(Swim > Swish) {_interval2(poi['swim_vs_swish'])}",
+        f"P(Swim > ReLU) {_interval2(poi['swim_vs_relu'])}, P(Swish > ReLU) {_interval2(poi['swish_vs_relu'])}",
+    ]
+    return quotes
+
+
+def test_claims_quote_the_walker2d_1m_report(claims, reports):
+    missing = [q for q in _walker_1m_quotes(reports[0]) if q not in claims]
+    assert not missing, f"docs/CLAIMS.md does not say what {REPORT_1M} says: {missing}"
+
+
+def test_claims_quote_the_300k_report(claims, reports):
+    missing = [q for q in _table2_300k_quotes(reports[1]) if q not in claims]
+    assert not missing, f"docs/CLAIMS.md does not say what {REPORT_300K} says: {missing}"
+
+
+def test_a_changed_report_is_caught(claims, reports):
+    """The check can fail: the 1M report with Swim's max moved by one no longer matches."""
+    changed = json.loads(json.dumps(reports[0]))
+    changed["envs"]["Walker2d-v5"]["table2"]["swim"]["max_mean"] += 1.0
+    assert any(q not in claims for q in _walker_1m_quotes(changed))
