@@ -120,3 +120,41 @@ def test_a_changed_report_is_caught(claims, reports):
     changed = json.loads(json.dumps(reports[0]))
     changed["envs"]["Walker2d-v5"]["table2"]["swim"]["max_mean"] += 1.0
     assert any(q not in claims for q in _walker_1m_quotes(changed))
+
+
+def _gymnasium_gap_pct(report: dict) -> float:
+    """Largest |Gymnasium's mean − ours| / ours over the report's checked cells, in %."""
+    return max(abs(c["gymnasium_minus_ours"]) / abs(c["ours_mean"]) * 100
+               for cells in report["gymnasium_check"].values() for c in cells.values())
+
+
+def test_readme_quotes_the_reports(reports):
+    """The README's results paragraph: Walker2d at 1M, the 300k aggregates, the Gymnasium check."""
+    r1m, r300 = reports
+    with open(os.path.join(REPO, "README.md"), encoding="utf-8") as f:
+        readme = " ".join(f.read().split())  # the paragraph wraps anywhere
+    w = r1m["envs"]["Walker2d-v5"]
+    t, sw = w["table2"], w["comparisons"]["swim_vs_swish"]["max"]
+    iqm = {a: r300["aggregate"]["metrics"][a]["iqm"][0] for a in ("swim", "swish", "relu")}
+    poi = r300["aggregate"]["probability_of_improvement"]
+    quotes = [
+        f"Swim {t['swim']['max_mean']:.0f} ± {t['swim']['max_std']:.0f}, Swish {t['swish']['max_mean']:.0f} ± "
+        f"{t['swish']['max_std']:.0f}, ReLU {t['relu']['max_mean']:.0f} ± {t['relu']['max_std']:.0f}",
+        f"Swim vs Swish {_signed(w['improvement_pct']['max'], 1)} %, Welch p {_p(sw)}",
+        f"IQM of normalized scores {iqm['swim']:.2f} and {iqm['swish']:.2f} against {iqm['relu']:.2f}",
+        f"over ReLU {poi['swim_vs_relu'][0]:.2f} and {poi['swish_vs_relu'][0]:.2f}",
+    ]
+    missing = [q for q in quotes if q not in readme]
+    assert not missing, f"README.md's results paragraph does not say what the reports say: {missing}"
+    for report, words in ((r300, "every float32 300k cell's mean lies within"),
+                          (r1m, "every 1M cell's within")):
+        quoted = float(readme.split(words, 1)[1].split("%", 1)[0])
+        assert _gymnasium_gap_pct(report) <= quoted < _gymnasium_gap_pct(report) + 0.2, (words, quoted)
+
+
+def test_claims_gymnasium_bound_covers_both_reports(claims, reports):
+    """CLAIMS.md's "every checked cell's mean lies within X %" is the larger of the two reports' gaps."""
+    text = " ".join(claims.split())
+    quoted = float(text.split("every checked cell's mean lies within", 1)[1].split("%", 1)[0])
+    gap = max(_gymnasium_gap_pct(r) for r in reports)
+    assert gap <= quoted < gap + 0.1, (quoted, gap)
