@@ -1,6 +1,7 @@
-"""docs/CLAIMS.md quotes the curated float32 reports by hand; every figure it quotes must equal the
-report's results.json as the document rounds it. When a curated cell changes and its report is
-redrawn, this fails until CLAIMS.md is updated with it."""
+"""The docs quote the curated float32 reports by hand (docs/CLAIMS.md, the README's results paragraph,
+runs/curated/study-f32/README.md and runs/curated/study-f32-walker-1m/README.md): every figure they
+quote must equal the report's results.json as the document rounds it (once, from the float). When a
+curated cell changes and its report is redrawn, this fails until the docs are updated with it."""
 
 from __future__ import annotations
 
@@ -158,3 +159,81 @@ def test_claims_gymnasium_bound_covers_both_reports(claims, reports):
     quoted = float(text.split("every checked cell's mean lies within", 1)[1].split("%", 1)[0])
     gap = max(_gymnasium_gap_pct(r) for r in reports)
     assert gap <= quoted < gap + 0.1, (quoted, gap)
+
+
+def _mean_std(cell: dict, score: str, digits: int) -> str:
+    return f"{cell[score + '_mean']:.{digits}f} ± {cell[score + '_std']:.{digits}f}"
+
+
+def test_study_readme_tables_are_the_reports(reports):
+    """runs/curated/study-f32/README.md's Table II at 300k, its aggregates and its 1M table."""
+    r1m, r300 = reports
+    with open(os.path.join(REPO, "runs", "curated", "study-f32", "README.md"), encoding="utf-8") as f:
+        text = f.read()
+    rows = []
+    for env, e in r300["envs"].items():
+        digits = 1 if env.startswith("Swimmer") else 0
+        t, m = e["table2"], e["comparisons"]["swim_vs_swish"]["max"]
+        verdict = "too weak" if e["verdict"].startswith("Evidence too weak") else "sufficient"
+        rows.append(f"| {env} | {_mean_std(t['swim'], 'max', digits)} | {_mean_std(t['swish'], 'max', digits)} | "
+                    f"{_mean_std(t['relu'], 'max', digits)} | {_signed(e['improvement_pct']['max'], 1)} %;")
+        rows.append(f"{_comparison(m, digits)}, p {_p(m)} | {verdict} |")
+    metrics = r300["aggregate"]["metrics"]
+    for name, a in (("Swim", "swim"), ("Swish", "swish"), ("ReLU", "relu")):
+        rows.append(f"| {name} | {_interval(metrics[a]['iqm'])} | {_interval(metrics[a]['mean'])} | "
+                    f"{_interval(metrics[a]['optimality_gap'])} |")
+        c = r1m["envs"]["Walker2d-v5"]["table2"][a]
+        rows.append(f"| {name} | {_mean_std(c, 'max', 0)} ({c['max_step'] // 1000}k) | {_mean_std(c, 'final', 0)} | "
+                    f"{_mean_std(c, 'auc', 0)} |")
+    missing = [r for r in rows if r not in text]
+    assert not missing, f"runs/curated/study-f32/README.md does not say what the reports say: {missing}"
+
+
+def test_study_readme_per_env_table_is_the_report(reports):
+    """runs/curated/study-f32/README.md's "Per env at 300k" rows: max (at step), final, AUC."""
+    with open(os.path.join(REPO, "runs", "curated", "study-f32", "README.md"), encoding="utf-8") as f:
+        text = f.read()
+    rows = []
+    for env, e in reports[1]["envs"].items():
+        digits = 1 if env.startswith("Swimmer") else 0
+        for i, (name, a) in enumerate((("Swim", "swim"), ("Swish", "swish"), ("ReLU", "relu"))):
+            c = e["table2"][a]
+            rows.append(f"|{' ' + env if i == 0 else ''} | {name} | {_mean_std(c, 'max', digits)} ({c['max_step'] // 1000}k) | "
+                        f"{_mean_std(c, 'final', digits)} | {_mean_std(c, 'auc', digits)} |")
+    missing = [r for r in rows if r not in text]
+    assert not missing, f"runs/curated/study-f32/README.md's per-env table is not the report's: {missing}"
+
+
+def test_walker_1m_readme_is_its_reports(reports):
+    """runs/curated/study-f32-walker-1m/README.md: its table, verdict, power line and the 300k read."""
+    folder = os.path.join(REPO, "runs", "curated", "study-f32-walker-1m")
+    with open(os.path.join(folder, "README.md"), encoding="utf-8") as f:
+        text = " ".join(f.read().split())
+    with open(os.path.join(folder, "report-at-300k", "results.json"), encoding="utf-8") as f:
+        at300 = json.load(f)["envs"]["Walker2d-v5"]
+    w = reports[0]["envs"]["Walker2d-v5"]
+    c, power = w["comparisons"], w["verdict_power"]
+    quotes = []
+    for name, a in (("Swim", "swim"), ("Swish", "swish"), ("ReLU", "relu")):
+        t = w["table2"][a]
+        mx = _mean_std(t, "max", 0) if a != "swish" else f"**{_mean_std(t, 'max', 0)}**"
+        quotes.append(f"| {name} | {t['seeds']} | {mx} ({t['max_step'] // 1000}k) | {_mean_std(t, 'final', 0)} | "
+                      f"{_mean_std(t, 'auc', 0)} |")
+    s = c["swim_vs_swish"]
+    quotes += [
+        f"per-seed max {_comparison(s['max'], 0)}, Welch p {_p(s['max'])}",
+        f"Final {_comparison(s['final'], 0, ci=False)} (p {_p(s['final'])}), "
+        f"AUC {_comparison(s['auc'], 0)} (p {_p(s['auc'])})",
+        f"finds a true difference of {power['detectable_difference']:.0f} "
+        f"({power['detectable_pct_of_swish']:.0f} % of Swish's mean)",
+        f"{power['seeds_for_paper_difference']} a side are needed for 80 %",
+        f"Swim {_comparison(c['swim_vs_relu']['max'], 0)} on the per-seed max (p {_p(c['swim_vs_relu']['max'])})",
+        f"Swish {_comparison(c['swish_vs_relu']['max'], 0)} (p {_p(c['swish_vs_relu']['max'])})",
+        f"on AUC {_comparison(c['swish_vs_relu']['auc'], 0)} (p {c['swish_vs_relu']['auc']['welch']['p_two_sided']:.3f})",
+        f"Swim {_mean_std(at300['table2']['swim'], 'max', 0)}, Swish {_mean_std(at300['table2']['swish'], 'max', 0)}, "
+        f"ReLU {_mean_std(at300['table2']['relu'], 'max', 0)} (max of the mean)",
+        f"per-seed max {_comparison(at300['comparisons']['swim_vs_swish']['max'], 0)}, "
+        f"p {_p(at300['comparisons']['swim_vs_swish']['max'])}",
+    ]
+    missing = [q for q in quotes if q not in text]
+    assert not missing, f"runs/curated/study-f32-walker-1m/README.md does not say what its reports say: {missing}"
