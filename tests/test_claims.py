@@ -237,3 +237,27 @@ def test_walker_1m_readme_is_its_reports(reports):
     ]
     missing = [q for q in quotes if q not in text]
     assert not missing, f"runs/curated/study-f32-walker-1m/README.md does not say what its reports say: {missing}"
+
+
+def _published(path: str) -> dict:
+    with open(os.path.join(REPO, "runs", "curated", *path.split("/")), encoding="utf-8") as f:
+        return {(e["activation"], e["step"]): e for e in json.load(f)}
+
+
+def test_claims_quote_published_td3_comparisons(claims):
+    """CLAIMS.md's "Our TD3 itself is where published TD3 is" paragraph, against `published`'s JSON."""
+    text = " ".join(claims.split())
+    at1m = _published("study-f32-walker-1m/published-1m.json")
+    ten = _published("study-f32-seeds5-9/published-relu-10seeds.json")[("relu", 300000)]
+    r = at1m[("relu", 1000000)]
+    quotes = [
+        f"ReLU on Walker2d-v5 at 1M {r['ours_mean']:.0f} ± {r['ours_sd']:.0f} against Tianshou's TD3 "
+        f"{r['published']['mean']:.0f} ± {r['published']['sd']:.0f} (p {r['welch_p']:.2f})",
+        f"at 300k Walker2d's ReLU starts later ({_signed(at1m[('relu', 300000)]['diff'], 0)}, "
+        f"p {at1m[('relu', 300000)]['welch_p']:.3f})",
+        f"ten seeds at 300k ({ten['ours_mean']:.0f} ± {ten['ours_sd']:.0f}) it is inside the published "
+        f"spread too (p {ten['welch_p']:.2f}",
+    ]
+    assert ten["ours_n"] == 10
+    missing = [q for q in quotes if q not in text]
+    assert not missing, f"docs/CLAIMS.md does not say what `published` says: {missing}"
