@@ -11,7 +11,6 @@ import os
 import pytest
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-CLAIMS = os.path.join(REPO, "docs", "CLAIMS.md")
 REPORT_1M = os.path.join(REPO, "runs", "curated", "study-f32-walker-1m", "report", "results.json")
 REPORT_300K = os.path.join(REPO, "runs", "curated", "study-f32", "report-300k", "results.json")
 MINUS = "\u2212"
@@ -24,7 +23,7 @@ def _signed(x: float, digits: int) -> str:
 
 
 def _comparison(c: dict, digits: int, ci: bool = True) -> str:
-    """``−165 [−818, +551], p 0.69``: a per-seed difference, its bootstrap CI and Welch's p."""
+    """``−165 [−818, +551]``: a per-seed difference and its bootstrap CI (``ci=False``: ``−165``)."""
     text = _signed(c["diff"], digits)
     if ci:
         lo, hi = c["diff_ci95"]
@@ -33,6 +32,7 @@ def _comparison(c: dict, digits: int, ci: bool = True) -> str:
 
 
 def _p(c: dict) -> str:
+    """Welch's two-sided p, two decimals."""
     return f"{c['welch']['p_two_sided']:.2f}"
 
 
@@ -44,10 +44,15 @@ def _interval2(v: list[float]) -> str:
     return f"{v[0]:.2f} [{v[1]:.2f}, {v[2]:.2f}]"
 
 
+def _text(*path: str) -> str:
+    """A document of the repository with its line breaks as spaces (quotes wrap anywhere)."""
+    with open(os.path.join(REPO, *path), encoding="utf-8") as f:
+        return " ".join(f.read().split())
+
+
 @pytest.fixture(scope="module")
 def claims() -> str:
-    with open(CLAIMS, encoding="utf-8") as f:
-        return f.read()
+    return _text("docs", "CLAIMS.md")
 
 
 @pytest.fixture(scope="module")
@@ -132,8 +137,7 @@ def _gymnasium_gap_pct(report: dict) -> float:
 def test_readme_quotes_the_reports(reports):
     """The README's results paragraph: Walker2d at 1M, the 300k aggregates, the Gymnasium check."""
     r1m, r300 = reports
-    with open(os.path.join(REPO, "README.md"), encoding="utf-8") as f:
-        readme = " ".join(f.read().split())  # the paragraph wraps anywhere
+    readme = _text("README.md")
     w = r1m["envs"]["Walker2d-v5"]
     t, sw = w["table2"], w["comparisons"]["swim_vs_swish"]["max"]
     iqm = {a: r300["aggregate"]["metrics"][a]["iqm"][0] for a in ("swim", "swish", "relu")}
@@ -155,8 +159,7 @@ def test_readme_quotes_the_reports(reports):
 
 def test_claims_gymnasium_bound_covers_both_reports(claims, reports):
     """CLAIMS.md's "every checked Table II cell's mean lies within X %" is the larger of the two reports' gaps."""
-    text = " ".join(claims.split())
-    quoted = float(text.split("every checked Table II cell's mean lies within", 1)[1].split("%", 1)[0])
+    quoted = float(claims.split("every checked Table II cell's mean lies within", 1)[1].split("%", 1)[0])
     gap = max(_gymnasium_gap_pct(r) for r in reports)
     assert gap <= quoted < gap + 0.1, (quoted, gap)
 
@@ -168,8 +171,7 @@ def _mean_std(cell: dict, score: str, digits: int) -> str:
 def test_study_readme_tables_are_the_reports(reports):
     """runs/curated/study-f32/README.md's Table II at 300k, its aggregates and its 1M table."""
     r1m, r300 = reports
-    with open(os.path.join(REPO, "runs", "curated", "study-f32", "README.md"), encoding="utf-8") as f:
-        text = f.read()
+    text = _text("runs", "curated", "study-f32", "README.md")
     rows = []
     for env, e in r300["envs"].items():
         digits = 1 if env.startswith("Swimmer") else 0
@@ -191,8 +193,7 @@ def test_study_readme_tables_are_the_reports(reports):
 
 def test_study_readme_per_env_table_is_the_report(reports):
     """runs/curated/study-f32/README.md's "Per env at 300k" rows: max (at step), final, AUC."""
-    with open(os.path.join(REPO, "runs", "curated", "study-f32", "README.md"), encoding="utf-8") as f:
-        text = f.read()
+    text = _text("runs", "curated", "study-f32", "README.md")
     rows = []
     for env, e in reports[1]["envs"].items():
         digits = 1 if env.startswith("Swimmer") else 0
@@ -207,8 +208,7 @@ def test_study_readme_per_env_table_is_the_report(reports):
 def test_walker_1m_readme_is_its_reports(reports):
     """runs/curated/study-f32-walker-1m/README.md: its table, verdict, power line and the 300k read."""
     folder = os.path.join(REPO, "runs", "curated", "study-f32-walker-1m")
-    with open(os.path.join(folder, "README.md"), encoding="utf-8") as f:
-        text = " ".join(f.read().split())
+    text = _text("runs", "curated", "study-f32-walker-1m", "README.md")
     with open(os.path.join(folder, "report-at-300k", "results.json"), encoding="utf-8") as f:
         at300 = json.load(f)["envs"]["Walker2d-v5"]
     w = reports[0]["envs"]["Walker2d-v5"]
@@ -246,7 +246,7 @@ def _published(path: str) -> dict:
 
 def test_claims_quote_published_td3_comparisons(claims):
     """CLAIMS.md's "Our TD3 itself is where published TD3 is" paragraph, against `published`'s JSON."""
-    text = " ".join(claims.split())
+    text = claims
     at1m = _published("study-f32-walker-1m/published-1m.json")
     ten = _published("study-f32-seeds5-9/published-relu-10seeds.json")[("relu", 300000)]
     r = at1m[("relu", 1000000)]
