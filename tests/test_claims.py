@@ -264,3 +264,36 @@ def test_claims_quote_published_td3_comparisons(claims):
     assert ten["ours_n"] == 10 and v4["ours_n"] == 10
     missing = [q for q in quotes if q not in text]
     assert not missing, f"docs/CLAIMS.md does not say what `published` says: {missing}"
+
+
+def _precision_rows() -> list[tuple[str, dict]]:
+    """(README row prefix, compare.json cell) for every precision pair of runs/curated/study-f32/README.md."""
+    rows = []
+    for path, renamed in (("study-f32/precision/compare.json", "walker_swim (null pair"),
+                          ("study-table2-walker-swim-bf16/precision/compare.json", "walker_swim against its bfloat16 run")):
+        with open(os.path.join(REPO, "runs", "curated", *path.split("/")), encoding="utf-8") as f:
+            cells = json.load(f)["cells"]
+        rows += [(f"| {renamed if name == 'walker_swim' else name + ' |'}", cell) for name, cell in cells.items()]
+    return rows
+
+
+def test_precision_table_is_the_compare_output():
+    """Every row of the README's precision table: each score's difference (and CI) and the verdict."""
+    with open(os.path.join(REPO, "runs", "curated", "study-f32", "README.md"), encoding="utf-8") as f:
+        lines = f.read().splitlines()
+    rows = _precision_rows()
+    assert len(rows) == 13  # 12 bfloat16 pairs and the float32 null pair
+    wrong = []
+    for prefix, cell in rows:
+        line = next((ln for ln in lines if ln.startswith(prefix)), None)
+        assert line is not None, f"no precision row {prefix!r}"
+        digits = 1 if cell["env"].startswith("Swimmer") else 0
+        for score in ("max", "final", "auc"):
+            s = {"diff": cell["scores"][score]["diff"], "diff_ci95": cell["scores"][score]["diff_ci"]}
+            quote = _comparison(s, digits, ci=score != "final")  # the table gives final without its CI
+            if quote not in line:
+                wrong.append(f"{prefix} {score}: {quote}")
+        verdict = line.rstrip(" |").rsplit("|", 1)[1]
+        if ("no" in verdict and "yes" not in verdict and "only" not in verdict) != (not cell["changed"]):
+            wrong.append(f"{prefix} changed: {cell['changed']}, the row says {verdict.strip()!r}")
+    assert not wrong, f"runs/curated/study-f32/README.md's precision table is not compare's output: {wrong}"
