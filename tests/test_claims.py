@@ -11,8 +11,8 @@ import os
 import pytest
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-REPORT_1M = os.path.join(REPO, "runs", "curated", "study-f32-walker-1m", "report", "results.json")
-REPORT_300K = os.path.join(REPO, "runs", "curated", "study-f32", "report-300k", "results.json")
+REPORT_1M = "runs/curated/study-f32-walker-1m/report/results.json"
+REPORT_300K = "runs/curated/study-f32/report-300k/results.json"
 MINUS = "\u2212"
 
 
@@ -44,24 +44,29 @@ def _interval2(v: list[float]) -> str:
     return f"{v[0]:.2f} [{v[1]:.2f}, {v[2]:.2f}]"
 
 
-def _text(*path: str) -> str:
+def _read(path: str) -> str:
+    """A file of the repository (``path`` relative to its root, with ``/``)."""
+    with open(os.path.join(REPO, *path.split("/")), encoding="utf-8") as f:
+        return f.read()
+
+
+def _text(path: str) -> str:
     """A document of the repository with its line breaks as spaces (quotes wrap anywhere)."""
-    with open(os.path.join(REPO, *path), encoding="utf-8") as f:
-        return " ".join(f.read().split())
+    return " ".join(_read(path).split())
+
+
+def _json(path: str):
+    return json.loads(_read(path))
 
 
 @pytest.fixture(scope="module")
 def claims() -> str:
-    return _text("docs", "CLAIMS.md")
+    return _text("docs/CLAIMS.md")
 
 
 @pytest.fixture(scope="module")
 def reports() -> tuple[dict, dict]:
-    with open(REPORT_1M, encoding="utf-8") as f:
-        r1m = json.load(f)
-    with open(REPORT_300K, encoding="utf-8") as f:
-        r300 = json.load(f)
-    return r1m, r300
+    return _json(REPORT_1M), _json(REPORT_300K)
 
 
 def _walker_1m_quotes(r1m: dict) -> list[str]:
@@ -171,7 +176,7 @@ def _mean_std(cell: dict, score: str, digits: int) -> str:
 def test_study_readme_tables_are_the_reports(reports):
     """runs/curated/study-f32/README.md's Table II at 300k, its aggregates and its 1M table."""
     r1m, r300 = reports
-    text = _text("runs", "curated", "study-f32", "README.md")
+    text = _text("runs/curated/study-f32/README.md")
     rows = []
     for env, e in r300["envs"].items():
         digits = 1 if env.startswith("Swimmer") else 0
@@ -193,7 +198,7 @@ def test_study_readme_tables_are_the_reports(reports):
 
 def test_study_readme_per_env_table_is_the_report(reports):
     """runs/curated/study-f32/README.md's "Per env at 300k" rows: max (at step), final, AUC."""
-    text = _text("runs", "curated", "study-f32", "README.md")
+    text = _text("runs/curated/study-f32/README.md")
     rows = []
     for env, e in reports[1]["envs"].items():
         digits = 1 if env.startswith("Swimmer") else 0
@@ -207,10 +212,8 @@ def test_study_readme_per_env_table_is_the_report(reports):
 
 def test_walker_1m_readme_is_its_reports(reports):
     """runs/curated/study-f32-walker-1m/README.md: its table, verdict, power line and the 300k read."""
-    folder = os.path.join(REPO, "runs", "curated", "study-f32-walker-1m")
-    text = _text("runs", "curated", "study-f32-walker-1m", "README.md")
-    with open(os.path.join(folder, "report-at-300k", "results.json"), encoding="utf-8") as f:
-        at300 = json.load(f)["envs"]["Walker2d-v5"]
+    text = _text("runs/curated/study-f32-walker-1m/README.md")
+    at300 = _json("runs/curated/study-f32-walker-1m/report-at-300k/results.json")["envs"]["Walker2d-v5"]
     w = reports[0]["envs"]["Walker2d-v5"]
     c, power = w["comparisons"], w["verdict_power"]
     quotes = []
@@ -240,13 +243,12 @@ def test_walker_1m_readme_is_its_reports(reports):
 
 
 def _published(path: str) -> dict:
-    with open(os.path.join(REPO, "runs", "curated", *path.split("/")), encoding="utf-8") as f:
-        return {(e["activation"], e["step"]): e for e in json.load(f)}
+    """`published --json`'s rows of ``runs/curated/<path>`` by (activation, step)."""
+    return {(e["activation"], e["step"]): e for e in _json("runs/curated/" + path)}
 
 
 def test_claims_quote_published_td3_comparisons(claims):
     """CLAIMS.md's "Our TD3 itself is where published TD3 is" paragraph, against `published`'s JSON."""
-    text = claims
     at1m = _published("study-f32-walker-1m/published-1m.json")
     ten = _published("study-f32-seeds5-9/published-relu-10seeds.json")[("relu", 300000)]
     r = at1m[("relu", 1000000)]
@@ -262,7 +264,7 @@ def test_claims_quote_published_td3_comparisons(claims):
     quotes.append(f"Walker2d-v4, the version of Tianshou's model and rewards ({v4['ours_mean']:.0f} ± "
                   f"{v4['ours_sd']:.0f}, ten seeds, p {v4['welch_p']:.2f};")
     assert ten["ours_n"] == 10 and v4["ours_n"] == 10
-    missing = [q for q in quotes if q not in text]
+    missing = [q for q in quotes if q not in claims]
     assert not missing, f"docs/CLAIMS.md does not say what `published` says: {missing}"
 
 
@@ -271,16 +273,14 @@ def _precision_rows() -> list[tuple[str, dict]]:
     rows = []
     for path, renamed in (("study-f32/precision/compare.json", "walker_swim (null pair"),
                           ("study-table2-walker-swim-bf16/precision/compare.json", "walker_swim against its bfloat16 run")):
-        with open(os.path.join(REPO, "runs", "curated", *path.split("/")), encoding="utf-8") as f:
-            cells = json.load(f)["cells"]
+        cells = _json("runs/curated/" + path)["cells"]
         rows += [(f"| {renamed if name == 'walker_swim' else name + ' |'}", cell) for name, cell in cells.items()]
     return rows
 
 
 def test_precision_table_is_the_compare_output():
     """Every row of the README's precision table: each score's difference (and CI) and the verdict."""
-    with open(os.path.join(REPO, "runs", "curated", "study-f32", "README.md"), encoding="utf-8") as f:
-        lines = f.read().splitlines()
+    lines = _read("runs/curated/study-f32/README.md").splitlines()
     rows = _precision_rows()
     assert len(rows) == 13  # 12 bfloat16 pairs and the float32 null pair
     wrong = []
