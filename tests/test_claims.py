@@ -1,7 +1,8 @@
-"""The docs quote the curated float32 reports by hand (docs/CLAIMS.md, the README's results paragraph,
+"""The docs quote the curated float32 results by hand (docs/CLAIMS.md, the README's results paragraph,
 runs/curated/study-f32/README.md and runs/curated/study-f32-walker-1m/README.md): every figure they
-quote must equal the report's results.json as the document rounds it (once, from the float). When a
-curated cell changes and its report is redrawn, this fails until the docs are updated with it."""
+quote must equal the file it comes from (a report's results.json, `compare`'s compare.json,
+`published`'s JSON) as the document rounds it (once, from the float). When a curated cell changes and
+its files are redrawn, this fails until the docs are updated with it."""
 
 from __future__ import annotations
 
